@@ -1,0 +1,78 @@
+"""The ``exudyn-study`` console script: one entry point, a table of subcommands.
+
+Each subcommand lives in its own module, which defines two functions:
+
+- ``configure(parser: argparse.ArgumentParser) -> None`` adds its arguments;
+- ``run(args: argparse.Namespace) -> int`` does the work and returns the exit code.
+
+Modules are imported only when their subcommand runs, so ``exudyn-study identify``
+never imports ngsolve or exudyn. Bad input (:class:`~exudyn_study.errors.InputError`)
+is reported as one line on stderr with exit code 2.
+"""
+
+from __future__ import annotations
+
+import argparse
+import importlib
+import logging
+import sys
+
+from .errors import InputError, StudyError
+
+__all__ = ["SUBCOMMANDS", "main"]
+
+#: subcommand name -> (module implementing configure/run, one-line help)
+SUBCOMMANDS: dict[str, tuple[str, str]] = {
+    "demo": ("exudyn_study.studies_cli.demo", "run the demo study on shipped settings"),
+    "reduce": ("exudyn_study.studies_cli.reduce", "mesh, assemble and reduce a flexible body"),
+    "identify": ("exudyn_study.identify.cli", "identify modes (PolyMAX) from a recording"),
+    "damage": ("exudyn_study.fatigue_cli", "relative pseudo damage between two recordings"),
+}
+
+
+def _available() -> dict[str, tuple[str, str]]:
+    out = {}
+    for name, (module, help_text) in SUBCOMMANDS.items():
+        if importlib.util.find_spec(module) is not None:
+            out[name] = (module, help_text)
+    return out
+
+
+def build_parser() -> argparse.ArgumentParser:
+    """Return the argument parser with every available subcommand configured."""
+    parser = argparse.ArgumentParser(
+        prog="exudyn-study",
+        description="Structural damping of flexible bodies: FE, rig models, EMA, fatigue, diagnosis.",
+    )
+    parser.add_argument("-v", "--verbose", action="store_true", help="log progress details")
+    sub = parser.add_subparsers(dest="command", metavar="COMMAND")
+    for name, (module, help_text) in _available().items():
+        sub_parser = sub.add_parser(name, help=help_text, description=help_text)
+        importlib.import_module(module).configure(sub_parser)
+        sub_parser.set_defaults(_module=module)
+    return parser
+
+
+def main(argv: list[str] | None = None) -> int:
+    """Run the console script; returns the process exit code."""
+    parser = build_parser()
+    args = parser.parse_args(argv)
+    logging.basicConfig(
+        level=logging.INFO if args.verbose else logging.WARNING,
+        format="%(levelname)s %(name)s: %(message)s",
+    )
+    if not getattr(args, "_module", None):
+        parser.print_help()
+        return 1
+    try:
+        return int(importlib.import_module(args._module).run(args) or 0)
+    except InputError as exc:
+        print(f"exudyn-study {args.command}: error: {exc}", file=sys.stderr)
+        return 2
+    except StudyError as exc:
+        print(f"exudyn-study {args.command}: failed: {exc}", file=sys.stderr)
+        return 3
+
+
+if __name__ == "__main__":  # pragma: no cover
+    sys.exit(main())
