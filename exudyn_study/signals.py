@@ -365,7 +365,9 @@ def resample(
     x = np.asarray(x, dtype=np.float64)
     if not np.all(np.isfinite(x)):
         idx = np.argwhere(~np.isfinite(x))[0]
-        raise InputError(f"resample: x has non-finite samples, the first at index {tuple(idx)}")
+        raise InputError(
+            f"resample: x has non-finite samples, the first at index {tuple(int(v) for v in idx)}"
+        )
     if up == down:
         return x.copy()
     # filter designed at the intermediate rate up * from_hz, normalised to its Nyquist

@@ -163,3 +163,17 @@ def test_damage_subprocess(files, tmp_path):
     assert proc.returncode == 0, proc.stderr
     data = json.loads(out.read_text())
     assert data["channels"]["ARFVZ"]["relative_pseudo_damage"] == pytest.approx(0.9**5, rel=1e-9)
+
+
+def test_modules_import_neither_exudyn_nor_ngsolve():
+    code = (
+        "import sys\n"
+        "import exudyn_study.recording, exudyn_study.sensors, exudyn_study.signals\n"
+        "import exudyn_study.fatigue, exudyn_study.fatigue_plots, exudyn_study.fatigue_cli\n"
+        "import exudyn_study.drive_iteration\n"
+        "roots = {m.split('.')[0] for m in sys.modules}\n"
+        "bad = sorted(roots & {'exudyn', 'ngsolve', 'netgen'})\n"
+        "assert not bad, bad\n"
+    )
+    proc = subprocess.run([sys.executable, "-c", code], capture_output=True, text=True, timeout=120)
+    assert proc.returncode == 0, proc.stderr
