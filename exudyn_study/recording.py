@@ -376,6 +376,11 @@ class Recording:
             directions = [n[-1] if n and n[-1] in "XYZ" else "" for n in names]
         if positions_m is None:
             positions_m = [None] * len(names)
+        if len(directions) != len(names) or len(positions_m) != len(names):
+            raise InputError(
+                f"from_arrays: {len(names)} names, {len(directions)} directions and "
+                f"{len(positions_m)} positions; expected one of each per channel"
+            )
         unit = QUANTITY_UNITS.get(quantity, "")
         chans = [
             Channel(n, quantity, unit, d, p, sample_rate_hz, row)

@@ -322,3 +322,5 @@ def test_from_arrays():
     assert rec.channel("ARFVZ").direction == "Z" and rec.channel("ASVY").direction == "Y"
     assert rec.drive.sample_rate_hz == 50.0 and rec.drive.quantity == "displacement"
     np.testing.assert_array_equal(rec.time_data()[0], x)
+    with pytest.raises(InputError, match="2 names, 1 directions"):
+        Recording.from_arrays(x, 100.0, ["A", "B"], directions=["Z"])
