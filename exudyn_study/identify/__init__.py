@@ -1,0 +1,61 @@
+"""Experimental modal analysis: FRF estimators, PolyMAX, automatic selection, LSFD, MAC.
+
+Imports neither ngsolve nor exudyn. Layouts: FRFs ``H[n_out, n_in, n_freq]``, time
+data ``x[n_channels, n_samples]``, shapes ``phi[n_dof, n_modes]``; SI units, Hz for
+frequencies, damping as a ratio.
+
+Typical use::
+
+    from exudyn_study.recording import read_recording
+    from exudyn_study.identify import identify_recording, write_modes_json
+
+    result = identify_recording(read_recording("run.h5"), "ARFVZ", band_hz=(3, 50))
+    write_modes_json(result.model, "modes.json")
+
+Modules: :mod:`.frf` (H1/H2/Hv, coherence), :mod:`.polymax` (stabilisation),
+:mod:`.selection` (automatic pole clustering), :mod:`.lsfd` (residues, shapes,
+synthesis, pole refinement, leakage model), :mod:`.mac` (MAC, MPC),
+:mod:`.resolution` (lines per half-power bandwidth), :mod:`.model` (ModalModel and
+its JSON), :mod:`.pipeline` (end to end), :mod:`.plots`, :mod:`.synthetic`.
+"""
+
+from .frf import FRF, estimate_frf
+from .lsfd import Leakage, LSFDResult, fit_modal_model, lsfd, refine_poles, synthesise
+from .mac import automac, mac, mcf, mpc
+from .model import ModalModel, Mode, read_modes_json, write_modes_json
+from .pipeline import IdentificationResult, identify, identify_frf, identify_recording
+from .polymax import Poles, modal_to_pole, pole_to_modal, polymax
+from .resolution import lines_in_half_power, resolution_warnings, suggest_resolution
+from .selection import Selection, select_modes
+
+__all__ = [
+    "FRF",
+    "estimate_frf",
+    "Poles",
+    "polymax",
+    "pole_to_modal",
+    "modal_to_pole",
+    "Selection",
+    "select_modes",
+    "Leakage",
+    "LSFDResult",
+    "lsfd",
+    "refine_poles",
+    "fit_modal_model",
+    "synthesise",
+    "mac",
+    "automac",
+    "mpc",
+    "mcf",
+    "lines_in_half_power",
+    "suggest_resolution",
+    "resolution_warnings",
+    "Mode",
+    "ModalModel",
+    "read_modes_json",
+    "write_modes_json",
+    "IdentificationResult",
+    "identify",
+    "identify_frf",
+    "identify_recording",
+]

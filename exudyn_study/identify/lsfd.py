@@ -1,0 +1,554 @@
+"""Least-squares frequency-domain (LSFD) residues, shapes, synthesis and pole refinement.
+
+With the poles fixed, every FRF is linear in its residues and residual terms:
+
+.. math:: H_{oi}(\\omega) = \\sum_k \\frac{R_{oik}}{j\\omega-\\lambda_k}
+          + \\frac{R^*_{oik}}{j\\omega-\\lambda^*_k}
+          + L_{oi} (j\\omega)^{a} + U_{oi} (j\\omega)^{b},
+
+where the lower residual :math:`L` stands for the modes below the band and the
+upper residual :math:`U` for those above it; the powers depend on the FRF form
+(receptance: a=-2, b=0; mobility: a=-1, b=1; accelerance or acceleration
+transmissibility: a=0, b=2). Residues and residuals are solved in the real
+least-squares sense (Peeters et al. 2004, Section 3.3). The mode shape of mode k is
+the dominant left singular vector of its residue matrix ``R[:, :, k]`` and the
+participation vector the right one.
+
+:func:`refine_poles` adjusts the poles so that the synthesised FRFs fit the
+measured ones best (a nonlinear least-squares fit of the continuous-time
+pole-residue model, residues eliminated by variable projection, Golub & Pereyra
+1973). PolyMAX fits a discrete-time (z-domain) model, so its poles carry a small
+model bias; the refined poles are those of the continuous model itself.
+
+References
+----------
+Peeters, B., Van der Auweraer, H., Guillaume, P., Leuridan, J. (2004). The PolyMAX
+frequency-domain method. Shock and Vibration 11, 395-409.
+
+Golub, G. H., Pereyra, V. (1973). The differentiation of pseudo-inverses and
+nonlinear least squares problems whose variables separate. SIAM J. Numer. Anal.
+10(2), 413-432.
+
+Ewins, D. J. (2000). Modal Testing: Theory, Practice and Application, 2nd ed.,
+Research Studies Press, Section 4.4 (residual terms).
+"""
+
+from __future__ import annotations
+
+import dataclasses
+import functools
+from dataclasses import dataclass
+
+import numpy as np
+import scipy.linalg
+import scipy.optimize
+
+from ..errors import InputError
+from ._checks import as_frf, band_mask
+from .polymax import modal_to_pole, pole_to_modal
+
+__all__ = [
+    "FRF_FORMS", "Leakage", "LSFDResult", "lsfd", "refine_poles", "synthesise",
+    "welch_expectation", "fit_modal_model",
+]
+
+#: FRF form -> powers of (j omega) of the lower and upper residual terms
+FRF_FORMS = {"receptance": (-2, 0), "mobility": (-1, 1), "accelerance": (0, 2)}
+
+
+@dataclass(frozen=True, eq=False)
+class LSFDResult:
+    """Residues, shapes and synthesised FRFs for fixed poles.
+
+    Attributes
+    ----------
+    poles : ndarray of complex, shape (n_modes,)
+        Poles in rad/s (upper half plane).
+    residues : ndarray of complex, shape (n_out, n_in, n_modes)
+        Residues in FRF unit times rad/s.
+    lower, upper : ndarray, shape (n_out, n_in)
+        Real coefficients of the lower and upper residual terms (zeros if unused).
+    shapes : ndarray of complex, shape (n_out, n_modes)
+        Mode shapes (dominant left singular vector of each residue matrix), scaled
+        so that the largest-magnitude component is 1 + 0j.
+    participation : ndarray of complex, shape (n_in, n_modes)
+        Participation vectors with ``residues[:, :, k] ~ shapes[:, k] participation[:, k]^T``.
+    freq_hz : ndarray, shape (n_freq,)
+        Lines of the fitted band in Hz.
+    synthesised : ndarray of complex, shape (n_out, n_in, n_freq)
+        Synthesised FRFs on ``freq_hz``.
+    fit_error : ndarray, shape (n_out,)
+        Relative rms error ``||H_o - H_syn,o|| / ||H_o||`` per output over the band
+        and all inputs (-).
+    frf_form : str
+        FRF form used for the residual terms.
+    """
+
+    poles: np.ndarray
+    residues: np.ndarray
+    lower: np.ndarray
+    upper: np.ndarray
+    shapes: np.ndarray
+    participation: np.ndarray
+    freq_hz: np.ndarray
+    synthesised: np.ndarray
+    fit_error: np.ndarray
+    frf_form: str
+
+    @property
+    def frequency_hz(self) -> np.ndarray:
+        """Undamped natural frequencies in Hz, shape (n_modes,)."""
+        return pole_to_modal(self.poles)[0]
+
+    @property
+    def damping_ratio(self) -> np.ndarray:
+        """Damping ratios (-), shape (n_modes,)."""
+        return pole_to_modal(self.poles)[1]
+
+
+@dataclass(frozen=True)
+class Leakage:
+    """Welch settings of an estimated FRF, for the leakage-aware pole basis.
+
+    For a white reference signal, the expected Welch H1 estimate is the DFT of the
+    sampled impulse response multiplied by the normalised autocorrelation of the
+    window (the lag window) :math:`\rho[m]`:
+
+    .. math:: E[H_1](\omega_l) = \sum_{m=0}^{N-1} h[m]\,\rho[m]\,e^{-j2\pi lm/N},
+              \quad \rho[m] = \frac{\sum_n w[n]w[n+m]}{\sum_n w[n]^2}
+
+    (Bendat & Piersol 2010, Section 8.5 for the spectral-window convolution). A
+    pole term :math:`R/(j\omega-\lambda)`, i.e. :math:`h(t) = R e^{\lambda t}`,
+    is therefore fitted with the basis
+    :math:`\sum_m \Delta t\, e^{\lambda m \Delta t}\rho[m] e^{-j2\pi lm/N}`
+    instead of :math:`1/(j\omega-\lambda)`. This removes the resolution (leakage)
+    bias of the damping for H1 exactly in expectation, and approximately for
+    H2 and Hv, whose peaks are smoothed by the same spectral window.
+
+    Attributes
+    ----------
+    sample_rate_hz : float
+        Sampling rate of the time data in Hz.
+    n_segment : int
+        Welch segment length in samples (resolution = fs / n_segment).
+    window : str
+        Window name (:func:`scipy.signal.get_window`).
+    """
+
+    sample_rate_hz: float
+    n_segment: int
+    window: str = "hann"
+
+    def __post_init__(self) -> None:
+        if not (np.isfinite(self.sample_rate_hz) and self.sample_rate_hz > 0):
+            raise InputError(f"sample_rate_hz={self.sample_rate_hz!r}: expected > 0")
+        if int(self.n_segment) != self.n_segment or self.n_segment < 8:
+            raise InputError(f"n_segment={self.n_segment!r}: expected an integer >= 8")
+
+    def lag_window(self) -> np.ndarray:
+        """Normalised window autocorrelation rho[m], m = 0..n_segment-1."""
+        return _lag_window(self.window, int(self.n_segment))
+
+    def kernel(self, oversample: int = 16, half_width: int = 8) -> tuple[np.ndarray, np.ndarray]:
+        """Spectral window ``|W|^2`` (unit sum) at offsets in lines, for smoothing.
+
+        Returns
+        -------
+        offsets : ndarray
+            Offsets in frequency lines, ``-half_width .. half_width`` in steps of
+            ``1 / oversample``.
+        weights : ndarray
+            Kernel weights summing to 1.
+        """
+        import scipy.signal
+
+        n = int(self.n_segment)
+        w = scipy.signal.get_window(self.window, n)
+        off = np.arange(-half_width * oversample, half_width * oversample + 1) / oversample
+        spec = np.exp(-2j * np.pi * np.outer(off, np.arange(n)) / n) @ w
+        k = np.abs(spec) ** 2
+        return off, k / k.sum()
+
+
+@functools.lru_cache(maxsize=8)
+def _lag_window(window: str, n: int) -> np.ndarray:
+    import scipy.signal
+
+    w = scipy.signal.get_window(window, n)
+    a = np.fft.irfft(np.abs(np.fft.rfft(w, 2 * n)) ** 2, 2 * n)[:n]
+    a = a / a[0]
+    a.setflags(write=False)
+    return a
+
+
+def _pole_basis(poles: np.ndarray, freq_hz: np.ndarray, leakage: Leakage | None):
+    """Basis functions of the pole terms, ``[n_freq, n_poles]``."""
+    if leakage is None:
+        jw = 2j * np.pi * freq_hz
+        return 1.0 / (jw[:, None] - poles[None, :])
+    dt = 1.0 / leakage.sample_rate_hz
+    n = leakage.n_segment
+    lines = np.rint(freq_hz * n * dt).astype(int)
+    m = np.arange(n)
+    g = dt * np.exp(poles[:, None] * (m[None, :] * dt)) * leakage.lag_window()[None, :]
+    return np.fft.fft(g, axis=1)[:, lines].T
+
+
+def _basis(poles: np.ndarray, freq_hz: np.ndarray, powers, leakage=None) -> np.ndarray:
+    """Real-coefficient basis ``A[n_freq, 2 n_modes + n_res]`` (complex values)."""
+    jw = 2j * np.pi * freq_hz
+    b1 = _pole_basis(poles, freq_hz, leakage)
+    b2 = _pole_basis(np.conj(poles), freq_hz, leakage)
+    cols = [b1 + b2, 1j * (b1 - b2)]
+    cols += [(jw**p)[:, None] for p in powers]
+    return np.concatenate(cols, axis=1)
+
+
+def _solve(a: np.ndarray, h2: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
+    """Real LS solution of ``a @ c = h2`` (complex a [nf, n_col], h2 [nf, n_rhs]).
+
+    Normal equations of the column-scaled real problem, solved by Cholesky (the
+    columns are few and well separated; LAPACK's QR/SVD drivers are avoided
+    because their threading overhead dominates at these sizes).
+    """
+    ar = np.vstack([a.real, a.imag])
+    hr = np.vstack([h2.real, h2.imag])
+    norm = np.linalg.norm(ar, axis=0)
+    norm[norm == 0] = 1.0
+    an = ar / norm
+    try:
+        c = scipy.linalg.cho_solve(scipy.linalg.cho_factor(an.T @ an), an.T @ hr)
+    except np.linalg.LinAlgError:
+        c = np.linalg.lstsq(an, hr, rcond=None)[0]
+    c = c / norm[:, None]
+    return c, a @ c
+
+
+def _check_poles(poles) -> np.ndarray:
+    poles = np.atleast_1d(np.asarray(poles, dtype=complex))
+    if poles.ndim != 1 or poles.size == 0:
+        raise InputError(f"poles of shape {poles.shape}: expected a non-empty 1-D array")
+    if not np.all(np.isfinite(poles)) or np.any(poles.imag <= 0):
+        raise InputError("poles: expected finite poles in the upper half plane (Im > 0)")
+    return poles
+
+
+def _powers(frf_form: str, residuals: bool):
+    if frf_form not in FRF_FORMS:
+        raise InputError(f"frf_form {frf_form!r}: expected one of {', '.join(FRF_FORMS)}")
+    return FRF_FORMS[frf_form] if residuals else ()
+
+
+def lsfd(
+    frf: np.ndarray,
+    freq_hz: np.ndarray,
+    poles: np.ndarray,
+    *,
+    band_hz: tuple[float, float] | None = None,
+    frf_form: str = "accelerance",
+    residuals: bool = True,
+    leakage: Leakage | None = None,
+) -> LSFDResult:
+    """Fit residues and residual terms to FRFs for given poles (LSFD).
+
+    Parameters
+    ----------
+    frf : ndarray of complex, shape (n_out, n_in, n_freq)
+        Measured FRFs.
+    freq_hz : ndarray, shape (n_freq,)
+        Frequency lines in Hz.
+    poles : ndarray of complex, shape (n_modes,)
+        Poles in rad/s, upper half plane.
+    band_hz : (float, float), optional
+        Band to fit in Hz (default: all lines above 0 Hz).
+    frf_form : {'accelerance', 'mobility', 'receptance'}, optional
+        Sets the residual terms; 'accelerance' also fits acceleration
+        transmissibilities (default).
+    residuals : bool, optional
+        Fit lower and upper residual terms (default True).
+    leakage : Leakage, optional
+        Welch settings of ``frf``: fit the leakage-aware pole basis (see
+        :class:`Leakage`); ``synthesised`` then includes the window smoothing.
+        Default None: plain pole terms.
+
+    Returns
+    -------
+    LSFDResult
+
+    Raises
+    ------
+    InputError
+        On bad shapes, non-finite data, poles off the upper half plane, an unknown
+        ``frf_form`` or a band outside the data.
+    """
+    frf, freq_hz = as_frf(frf, freq_hz)
+    poles = _check_poles(poles)
+    powers = _powers(frf_form, residuals)
+    sel = band_mask(freq_hz, band_hz)
+    f = freq_hz[sel]
+    h = frf[:, :, sel]
+    n_out, n_in, nf = h.shape
+    n_modes = poles.size
+    a = _basis(poles, f, powers, leakage)
+    if a.shape[1] > 2 * nf:
+        raise InputError(
+            f"{n_modes} modes and {len(powers)} residual terms need more than the {nf} "
+            "lines of the band"
+        )
+    c, syn = _solve(a, h.reshape(n_out * n_in, nf).T)
+    res = (c[:n_modes] + 1j * c[n_modes:2 * n_modes]).T.reshape(n_out, n_in, n_modes)
+    lower = np.zeros((n_out, n_in))
+    upper = np.zeros((n_out, n_in))
+    if powers:
+        lower = c[2 * n_modes].reshape(n_out, n_in)
+        upper = c[2 * n_modes + 1].reshape(n_out, n_in)
+    syn = syn.T.reshape(n_out, n_in, nf)
+    shapes = np.zeros((n_out, n_modes), complex)
+    part = np.zeros((n_in, n_modes), complex)
+    for k in range(n_modes):
+        # dominant singular pair via the small n_in x n_in Hermitian matrix R^H R
+        r_k = res[:, :, k]
+        _, evec = np.linalg.eigh(r_k.conj().T @ r_k)
+        v = evec[:, -1]
+        psi = r_k @ v
+        lvec = np.conj(v)
+        ref = psi[np.argmax(np.abs(psi))]
+        if ref != 0:
+            shapes[:, k] = psi / ref
+            part[:, k] = lvec * ref
+    num = np.sqrt(np.sum(np.abs(h - syn) ** 2, axis=(1, 2)))
+    den = np.sqrt(np.sum(np.abs(h) ** 2, axis=(1, 2)))
+    with np.errstate(invalid="ignore", divide="ignore"):
+        err = np.where(den > 0, num / np.where(den > 0, den, 1.0), 0.0)
+    return LSFDResult(
+        poles=poles, residues=res, lower=lower, upper=upper, shapes=shapes,
+        participation=part, freq_hz=f, synthesised=syn, fit_error=err, frf_form=frf_form,
+    )
+
+
+def synthesise(result: LSFDResult, freq_hz: np.ndarray) -> np.ndarray:
+    """Evaluate the fitted modal model of ``result`` at other frequencies.
+
+    Parameters
+    ----------
+    result : LSFDResult
+        Output of :func:`lsfd`.
+    freq_hz : ndarray, shape (n_freq,)
+        Frequencies in Hz.
+
+    Returns
+    -------
+    ndarray of complex, shape (n_out, n_in, n_freq)
+    """
+    f = np.asarray(freq_hz, dtype=float)
+    jw = 2j * np.pi * f
+    p = result.poles
+    h = result.residues @ (1.0 / (jw[None, :] - p[:, None]))
+    h = h + np.conj(result.residues) @ (1.0 / (jw[None, :] - np.conj(p)[:, None]))
+    lo, up = FRF_FORMS[result.frf_form]
+    with np.errstate(divide="ignore", invalid="ignore"):
+        h = h + result.lower[:, :, None] * jw**lo + result.upper[:, :, None] * jw**up
+    return h
+
+
+def refine_poles(
+    frf: np.ndarray,
+    freq_hz: np.ndarray,
+    poles: np.ndarray,
+    *,
+    band_hz: tuple[float, float] | None = None,
+    frf_form: str = "accelerance",
+    residuals: bool = True,
+    weights: np.ndarray | None = None,
+    leakage: Leakage | None = None,
+    max_nfev: int = 200,
+) -> np.ndarray:
+    """Refine poles by nonlinear least squares on the pole-residue model.
+
+    Minimises ``sum_o w_o^2 ||H_o - H_syn,o(poles)||^2`` over the natural
+    frequencies and damping ratios, with the residues and residual terms of every
+    trial eliminated by linear least squares (variable projection).
+
+    Parameters
+    ----------
+    frf : ndarray of complex, shape (n_out, n_in, n_freq)
+        Measured FRFs.
+    freq_hz : ndarray, shape (n_freq,)
+        Frequency lines in Hz.
+    poles : ndarray of complex, shape (n_modes,)
+        Starting poles in rad/s (e.g. from PolyMAX).
+    band_hz : (float, float), optional
+        Band in Hz (default all lines above 0 Hz).
+    frf_form : str, optional
+        See :func:`lsfd`.
+    residuals : bool, optional
+        Fit residual terms (default True).
+    weights : ndarray, shape (n_out,), optional
+        Weight per output; default 1 / rms(|H_o|).
+    leakage : Leakage, optional
+        Welch settings of ``frf`` for the leakage-aware basis (see :class:`Leakage`).
+    max_nfev : int, optional
+        Maximum number of function evaluations of the optimiser.
+
+    Returns
+    -------
+    ndarray of complex, shape (n_modes,)
+        Refined poles, same order as ``poles``. If the optimiser moves a pole by
+        more than half the distance to its neighbour, the starting poles are
+        returned unchanged (the fit is not trusted).
+    """
+    frf, freq_hz = as_frf(frf, freq_hz)
+    poles = _check_poles(poles)
+    powers = _powers(frf_form, residuals)
+    sel = band_mask(freq_hz, band_hz)
+    f = freq_hz[sel]
+    h = frf[:, :, sel]
+    n_out, n_in, nf = h.shape
+    if weights is None:
+        rms = np.sqrt(np.mean(np.abs(h) ** 2, axis=(1, 2)))
+        weights = np.where(rms > 0, 1.0 / np.where(rms > 0, rms, 1.0), 0.0)
+    hw = (h * np.asarray(weights)[:, None, None]).reshape(n_out * n_in, nf).T
+    fn0, z0 = pole_to_modal(poles)
+    z0 = np.clip(z0, 1e-5, 0.5)
+
+    def unpack(x):
+        n = poles.size
+        return modal_to_pole(fn0 * (1 + x[:n]), z0 * np.exp(x[n:]))
+
+    def resid(x):
+        a = _basis(unpack(x), f, powers, leakage)
+        _, syn = _solve(a, hw)
+        d = hw - syn
+        return np.concatenate([d.real.ravel(), d.imag.ravel()])
+
+    x0 = np.zeros(2 * poles.size)
+    sol = scipy.optimize.least_squares(
+        resid, x0, method="lm", x_scale=np.concatenate([np.full(poles.size, 1e-3),
+                                                         np.full(poles.size, 0.1)]),
+        max_nfev=max_nfev * (2 * poles.size + 1),
+    )
+    new = unpack(sol.x)
+    fn_new = pole_to_modal(new)[0]
+    order = np.argsort(fn0)
+    gaps = np.diff(fn0[order])
+    half = np.full(poles.size, np.inf)
+    if gaps.size:
+        half[order] = 0.5 * np.minimum(np.r_[np.inf, gaps], np.r_[gaps, np.inf])
+    if not sol.success or np.any(np.abs(fn_new - fn0) > half) or not np.all(np.isfinite(new)):
+        return poles
+    return new
+
+
+def welch_expectation(
+    result: LSFDResult, freq_hz: np.ndarray, leakage: Leakage, estimator: str
+) -> np.ndarray:
+    """Expected Welch estimate of the modal model in ``result`` (white reference).
+
+    The model FRF :math:`H` is smoothed by the spectral window
+    :math:`K = |W|^2` (unit sum): :math:`E[H_1] = K * H`,
+    :math:`E[H_v] = (K*H)/|K*H| \\sqrt{K*|H|^2}`, :math:`E[H_2] = (K*|H|^2)/(K*H)^*`
+    (ratios of expected spectra, single reference per column).
+
+    Parameters
+    ----------
+    result : LSFDResult
+        Modal model (poles, residues, residual terms; plain pole terms).
+    freq_hz : ndarray, shape (n_freq,)
+        Lines in Hz at which to evaluate.
+    leakage : Leakage
+        Welch settings.
+    estimator : {'H1', 'H2', 'Hv'}
+        Estimator whose expectation is returned.
+
+    Returns
+    -------
+    ndarray of complex, shape (n_out, n_in, n_freq)
+    """
+    f = np.asarray(freq_hz, dtype=float)
+    off, k = leakage.kernel()
+    df = leakage.sample_rate_hz / leakage.n_segment
+    grid = f[:, None] + off[None, :] * df  # [nf, n_off]
+    h = synthesise(result, grid.ravel()).reshape(*result.residues.shape[:2], *grid.shape)
+    e_h = h @ k
+    if estimator == "H1":
+        return e_h
+    e_hh = (np.abs(h) ** 2) @ k
+    if estimator == "Hv":
+        return e_h / np.maximum(np.abs(e_h), np.finfo(float).tiny) * np.sqrt(e_hh)
+    if estimator == "H2":
+        return e_hh / np.conj(e_h)
+    raise InputError(f"estimator {estimator!r}: expected 'H1', 'H2' or 'Hv'")
+
+
+def fit_modal_model(
+    frf: np.ndarray,
+    freq_hz: np.ndarray,
+    poles: np.ndarray,
+    *,
+    band_hz: tuple[float, float] | None = None,
+    frf_form: str = "accelerance",
+    leakage: Leakage | None = None,
+    estimator: str = "H1",
+    refine: bool = True,
+    iterations: int = 3,
+) -> LSFDResult:
+    """Refine poles and fit residues, correcting the estimator's resolution bias.
+
+    Without ``leakage`` this is :func:`refine_poles` followed by :func:`lsfd`.
+    With ``leakage`` the pole terms are leakage-aware (see :class:`Leakage`); for
+    H2 and Hv, whose expectation is not linear in the FRF, the data are first
+    mapped to their H1 equivalent with the current model,
+    ``H_meas * E[H1] / E[H_est]`` (:func:`welch_expectation`), and the fit is
+    repeated ``iterations`` times (a fixed-point iteration on the bias).
+
+    Parameters
+    ----------
+    frf : ndarray of complex, shape (n_out, n_in, n_freq)
+        Estimated FRFs.
+    freq_hz : ndarray, shape (n_freq,)
+        Lines in Hz.
+    poles : ndarray of complex, shape (n_modes,)
+        Starting poles in rad/s.
+    band_hz : (float, float), optional
+        Fitted band in Hz.
+    frf_form : str, optional
+        See :func:`lsfd`.
+    leakage : Leakage, optional
+        Welch settings of ``frf``; None fits plain pole terms.
+    estimator : {'H1', 'H2', 'Hv'}, optional
+        Estimator that produced ``frf``.
+    refine : bool, optional
+        Refine the poles by nonlinear least squares (default True).
+    iterations : int, optional
+        Bias-correction iterations for H2/Hv (default 3).
+
+    Returns
+    -------
+    LSFDResult
+        Residues of the underlying (unsmoothed) modal model; ``synthesised`` and
+        ``fit_error`` compare the model's expected estimate with ``frf``.
+    """
+    frf, freq_hz = as_frf(frf, freq_hz)
+    poles = _check_poles(poles)
+    kw = {"band_hz": band_hz, "frf_form": frf_form, "leakage": leakage}
+    p = refine_poles(frf, freq_hz, poles, **kw) if refine else poles
+    res = lsfd(frf, freq_hz, p, **kw)
+    if leakage is not None and estimator in ("H2", "Hv"):
+        sel = band_mask(freq_hz, band_hz)
+        for _ in range(max(0, int(iterations))):
+            e1 = welch_expectation(res, freq_hz[sel], leakage, "H1")
+            ee = welch_expectation(res, freq_hz[sel], leakage, estimator)
+            with np.errstate(invalid="ignore", divide="ignore"):
+                corr = np.where(np.abs(ee) > 0, e1 / np.where(ee == 0, 1, ee), 1.0)
+            h_eq = frf.copy()
+            h_eq[:, :, sel] = frf[:, :, sel] * corr
+            p = refine_poles(h_eq, freq_hz, p, **kw) if refine else p
+            res = lsfd(h_eq, freq_hz, p, **kw)
+        # report the fit against the data as measured
+        syn = welch_expectation(res, freq_hz[sel], leakage, estimator)
+        h = frf[:, :, sel]
+        num = np.sqrt(np.sum(np.abs(h - syn) ** 2, axis=(1, 2)))
+        den = np.sqrt(np.sum(np.abs(h) ** 2, axis=(1, 2)))
+        err = np.where(den > 0, num / np.where(den > 0, den, 1.0), 0.0)
+        res = dataclasses.replace(res, synthesised=syn, fit_error=err)
+    return res

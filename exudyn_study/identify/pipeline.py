@@ -1,0 +1,306 @@
+"""End-to-end identification: time data -> FRFs -> PolyMAX -> selection -> LSFD -> modes.
+
+:func:`identify_frf` works on FRFs, :func:`identify` on time arrays and
+:func:`identify_recording` on a :class:`~exudyn_study.recording.Recording`.
+All return an :class:`IdentificationResult` whose ``model`` is a
+:class:`~exudyn_study.identify.model.ModalModel` (the modes JSON schema).
+"""
+
+from __future__ import annotations
+
+import logging
+import warnings
+from collections.abc import Iterable, Sequence
+from dataclasses import dataclass
+
+import numpy as np
+
+from ..errors import InputError
+from .frf import FRF, estimate_frf
+from .lsfd import Leakage, LSFDResult, fit_modal_model
+from .mac import mpc
+from .model import ModalModel, Mode
+from .polymax import Poles, polymax
+from .resolution import resolution_warnings
+from .selection import Selection, select_modes
+
+__all__ = ["IdentificationResult", "identify_frf", "identify", "identify_recording",
+           "DEFAULT_ORDERS"]
+
+logger = logging.getLogger(__name__)
+
+#: model orders of the stabilisation diagram by default
+DEFAULT_ORDERS = tuple(range(2, 61))
+
+
+@dataclass(frozen=True, eq=False)
+class IdentificationResult:
+    """Everything an identification produced.
+
+    Attributes
+    ----------
+    model : ModalModel
+        The identified modes (JSON schema of :mod:`~exudyn_study.identify.model`).
+    frf : FRF
+        The FRFs the modes were fitted to.
+    poles : Poles
+        All poles of the stabilisation diagram.
+    selection : Selection
+        Clusters and which were accepted.
+    fit : LSFDResult or None
+        Residues, shapes, synthesised FRFs and fit error per channel (None when
+        no mode was found).
+    band_hz : (float, float)
+        Fitted band in Hz.
+    warnings : tuple of str
+        Resolution warnings (also issued with :func:`warnings.warn`).
+    """
+
+    model: ModalModel
+    frf: FRF
+    poles: Poles
+    selection: Selection
+    fit: LSFDResult | None
+    band_hz: tuple[float, float]
+    warnings: tuple[str, ...] = ()
+
+
+def _default_band(frf: FRF) -> tuple[float, float]:
+    """Lines where the median coherence over channels is at least 0.5."""
+    coh = np.median(frf.coherence.reshape(-1, frf.coherence.shape[-1]), axis=0)
+    good = np.flatnonzero((coh >= 0.5) & (frf.freq_hz > 0))
+    if good.size < 4:
+        raise InputError(
+            "band: the coherence is below 0.5 almost everywhere, so no excited band can be "
+            "chosen automatically; give band_hz (fmin, fmax)"
+        )
+    return float(frf.freq_hz[good[0]]), float(frf.freq_hz[good[-1]])
+
+
+def identify_frf(
+    frf: FRF,
+    *,
+    band_hz: tuple[float, float] | None = None,
+    orders: Iterable[int] = DEFAULT_ORDERS,
+    frf_form: str = "accelerance",
+    leakage_correction: bool = True,
+    refine: bool = True,
+    pin_hz: Sequence[float] = (),
+    drop_hz: Sequence[float] = (),
+    stability: dict | None = None,
+    selection: dict | None = None,
+    duration_s: float | None = None,
+    metadata: dict | None = None,
+) -> IdentificationResult:
+    """Identify modes from FRFs: PolyMAX, automatic selection, LSFD.
+
+    Parameters
+    ----------
+    frf : FRF
+        FRFs ``H[n_out, n_in, n_freq]`` with names (see :func:`estimate_frf`).
+    band_hz : (float, float), optional
+        Band in Hz; default the lines whose median coherence is at least 0.5.
+    orders : iterable of int, optional
+        Model orders of the stabilisation diagram (default 2..60).
+    frf_form : str, optional
+        'accelerance' (also acceleration transmissibility, default), 'mobility'
+        or 'receptance': sets the residual terms.
+    leakage_correction : bool, optional
+        Fit the leakage-aware model of the Welch estimate (default True; needs
+        ``frf.sample_rate_hz``), see :class:`~exudyn_study.identify.lsfd.Leakage`.
+    refine : bool, optional
+        Refine the selected poles by nonlinear least squares (default True).
+    pin_hz, drop_hz : sequence of float, optional
+        Modes to force into / remove from the automatic selection (Hz).
+    stability : dict, optional
+        Tolerances for :func:`polymax` (``tol_frequency``, ``tol_damping``, ``tol_vector``).
+    selection : dict, optional
+        Options for :func:`select_modes`.
+    duration_s : float, optional
+        Record length in s, for the resolution suggestion.
+    metadata : dict, optional
+        Extra metadata for the model.
+
+    Returns
+    -------
+    IdentificationResult
+    """
+    if not isinstance(frf, FRF):
+        raise InputError(f"frf of type {type(frf).__name__}: expected an FRF (estimate_frf)")
+    band = _default_band(frf) if band_hz is None else tuple(float(b) for b in band_hz)
+    poles = polymax(frf.H, frf.freq_hz, orders, band_hz=band, **(stability or {}))
+    sel = select_modes(poles, pin_hz=pin_hz, drop_hz=drop_hz, **(selection or {}))
+    meta = {
+        "estimator": frf.estimator,
+        "resolution_hz": frf.resolution_hz,
+        "n_averages": frf.n_averages,
+        "band_hz": list(band),
+        "references": list(frf.inputs),
+        "orders": [min(poles.orders), max(poles.orders)],
+        "leakage_correction": bool(leakage_correction and frf.sample_rate_hz is not None),
+        "method": "PolyMAX + automatic clustering + LSFD",
+    }
+    meta.update(metadata or {})
+    if not sel.modes:
+        logger.warning("no stable physical poles found in %.4g-%.4g Hz", *band)
+        return IdentificationResult(ModalModel((), meta), frf, poles, sel, None, band, ())
+    leak = None
+    if leakage_correction and frf.sample_rate_hz is not None:
+        leak = Leakage(frf.sample_rate_hz, frf.n_segment, frf.window)
+    fit = fit_modal_model(frf.H, frf.freq_hz, sel.poles, band_hz=band, frf_form=frf_form,
+                          leakage=leak, estimator=frf.estimator, refine=refine)
+    names = frf.outputs or tuple(f"ch{i}" for i in range(frf.H.shape[0]))
+    phase_coll = mpc(fit.shapes)
+    modes = []
+    for k, c in enumerate(sel.modes):
+        shape = {n: complex(v) for n, v in zip(names, fit.shapes[:, k])}
+        modes.append(Mode(
+            frequency_hz=float(fit.frequency_hz[k]),
+            damping_ratio=float(max(fit.damping_ratio[k], 0.0)),
+            frequency_std_hz=c.frequency_std_hz,
+            damping_std=c.damping_std,
+            mpc=float(phase_coll[k]),
+            shape=shape,
+        ))
+    model = ModalModel(tuple(modes), meta)
+    msgs = tuple(resolution_warnings(model.frequency_hz, model.damping_ratio,
+                                     frf.resolution_hz, duration_s=duration_s))
+    if msgs and leak is not None:
+        msgs = msgs + ("leakage correction is on: the damping values above are corrected for "
+                       "the spectral window; a finer resolution still reduces their variance",)
+    for m in msgs:
+        warnings.warn(m, stacklevel=2)
+    return IdentificationResult(model, frf, poles, sel, fit, band, msgs)
+
+
+def identify(
+    reference: np.ndarray,
+    response: np.ndarray,
+    sample_rate_hz: float,
+    *,
+    outputs: Sequence[str] = (),
+    inputs: Sequence[str] = (),
+    resolution_hz: float = 0.2,
+    estimator: str = "Hv",
+    band_hz: tuple[float, float] | None = None,
+    overlap: float = 0.5,
+    window: str = "hann",
+    mimo: bool = False,
+    **kwargs,
+) -> IdentificationResult:
+    """Identify modes from time data ``reference[n_in, n]`` and ``response[n_out, n]``.
+
+    Parameters
+    ----------
+    reference : ndarray, shape (n_in, n_samples)
+        Reference channels (e.g. base acceleration in m/s^2).
+    response : ndarray, shape (n_out, n_samples)
+        Response channels.
+    sample_rate_hz : float
+        Sampling rate in Hz.
+    outputs, inputs : sequence of str, optional
+        Channel names of responses and references.
+    resolution_hz : float, optional
+        FRF resolution in Hz (default 0.2).
+    estimator : {'H1', 'H2', 'Hv'}, optional
+        FRF estimator (default 'Hv').
+    band_hz : (float, float), optional
+        Band in Hz; must lie below the Nyquist frequency.
+    overlap, window, mimo
+        Welch settings, see :func:`estimate_frf`.
+    **kwargs
+        Passed to :func:`identify_frf`.
+
+    Returns
+    -------
+    IdentificationResult
+
+    Raises
+    ------
+    InputError
+        On bad time data, a band outside 0..Nyquist, or a record too short.
+    """
+    nyq = sample_rate_hz / 2
+    if band_hz is not None:
+        try:
+            lo, hi = (float(b) for b in band_hz)
+        except (TypeError, ValueError):
+            raise InputError(f"band {band_hz!r}: expected two frequencies FMIN FMAX in Hz")
+        if not (0 <= lo < hi <= nyq):
+            raise InputError(
+                f"band {lo:g}-{hi:g} Hz: expected 0 <= FMIN < FMAX <= Nyquist ({nyq:g} Hz "
+                f"at {sample_rate_hz:g} Hz sampling)"
+            )
+    n = np.shape(response)[-1]
+    frf = estimate_frf(reference, response, sample_rate_hz, resolution_hz=resolution_hz,
+                       estimator=estimator, overlap=overlap, window=window, mimo=mimo,
+                       fmax_hz=None if band_hz is None else min(nyq, band_hz[1] * 1.2),
+                       outputs=tuple(outputs), inputs=tuple(inputs))
+    kwargs.setdefault("duration_s", n / sample_rate_hz)
+    return identify_frf(frf, band_hz=band_hz, **kwargs)
+
+
+def _frf_form(ref_q: str, resp_q: str) -> str:
+    if resp_q == "displacement" and ref_q == "force":
+        return "receptance"
+    return "accelerance"
+
+
+def identify_recording(
+    recording,
+    reference: str | Sequence[str],
+    *,
+    responses: Sequence[str] | None = None,
+    **kwargs,
+) -> IdentificationResult:
+    """Identify modes from a :class:`~exudyn_study.recording.Recording`.
+
+    Parameters
+    ----------
+    recording : Recording
+        Measured or simulated recording.
+    reference : str or sequence of str
+        Reference channel name(s), e.g. ``'ARFVZ'``.
+    responses : sequence of str, optional
+        Response channels; default every channel with role 'response' that is not
+        a reference.
+    **kwargs
+        Passed to :func:`identify` (``resolution_hz``, ``estimator``, ``band_hz``, ...).
+
+    Returns
+    -------
+    IdentificationResult
+
+    Raises
+    ------
+    InputError
+        For an unknown channel, mixed sample rates, NaN samples, a band outside
+        the Nyquist range or a record too short for the resolution.
+    """
+    refs = (reference,) if isinstance(reference, str) else tuple(reference)
+    if not refs:
+        raise InputError("reference: expected at least one channel name")
+    for r in refs:
+        recording.channel(r)  # InputError naming close matches for unknown names
+    if responses is None:
+        responses = tuple(c.name for c in recording.channels
+                          if c.role == "response" and c.name not in refs)
+    responses = tuple(responses)
+    if not responses:
+        raise InputError(f"recording has no response channels besides {list(refs)}")
+    both = set(refs) & set(responses)
+    if both:
+        raise InputError(f"channels {sorted(both)} are both reference and response")
+    x_ref, fs = recording.time_data(refs)
+    x_resp, fs2 = recording.time_data(responses)
+    if fs != fs2:
+        raise InputError(
+            f"references sampled at {fs:g} Hz, responses at {fs2:g} Hz: expected one rate"
+        )
+    kwargs.setdefault("frf_form", _frf_form(recording.channel(refs[0]).quantity,
+                                            recording.channel(responses[0]).quantity))
+    meta = dict(kwargs.pop("metadata", None) or {})
+    meta.setdefault("recording", {k: v for k, v in dict(recording.metadata).items()
+                                  if isinstance(v, (str, int, float, bool))})
+    return identify(x_ref, x_resp, fs, outputs=responses, inputs=refs, metadata=meta,
+                    **kwargs)

@@ -1,0 +1,269 @@
+"""Automatic selection of physical poles from a stabilisation diagram.
+
+A physical mode shows up at (nearly) the same frequency, damping and shape at every
+model order once the order suffices; a computational pole does not. The selection
+therefore
+
+1. keeps the candidate poles: stable in frequency and vector against the previous
+   order, with a damping ratio in ``(0, max_damping)``;
+2. clusters them hierarchically (average linkage) with a scale-free distance,
+   ``max(|f_i - f_j| / f / tol_frequency, (1 - MAC_ij) / tol_mac)``, where poles of
+   the same model order are kept apart (one pole per order and mode); the cut is
+   at distance 1, so two modes a little more than ``tol_frequency`` apart are
+   resolved (1 % by default: modes 2 % apart are two clusters);
+3. accepts the clusters that hold poles from at least ``min_coverage`` of the
+   computed orders, and reports each with the median of its members as estimate
+   and their standard deviation as uncertainty;
+4. rejects *satellites*: an accepted cluster closer than ``satellite_frequency``
+   (relative) to a cluster of larger coverage with the same shape (MAC above
+   ``satellite_mac``). A lightly damped mode resolved by few spectral lines is
+   smoothed by the spectral window into a peak no single pole pair fits, and
+   over-modelling then adds a consistent extra pole pair beside it with the
+   mode's own shape. Two genuine modes that close would need distinct shapes
+   to be told apart from the data at all.
+
+No absolute frequency window and no user frequency enters; the user may still pin
+(force) or drop modes near given frequencies (:func:`select_modes`).
+
+References
+----------
+Reynders, E., Houbrechts, J., De Roeck, G. (2012). Fully automated (operational)
+modal analysis. Mechanical Systems and Signal Processing 29, 228-250.
+
+Neu, E., Janser, F., Khatibi, A. A., Orifici, A. C. (2017). Fully automated
+operational modal analysis using multi-stage clustering. Mechanical Systems and
+Signal Processing 84, 308-323.
+"""
+
+from __future__ import annotations
+
+from collections.abc import Sequence
+from dataclasses import dataclass
+
+import numpy as np
+import scipy.cluster.hierarchy
+import scipy.spatial.distance
+
+from ..errors import InputError
+from .mac import mac
+from .polymax import Poles
+
+__all__ = ["Cluster", "Selection", "select_modes"]
+
+
+@dataclass(frozen=True, eq=False)
+class Cluster:
+    """A cluster of poles across model orders.
+
+    Attributes
+    ----------
+    members : ndarray of int
+        Indices into the :class:`~exudyn_study.identify.polymax.Poles` arrays.
+    frequency_hz, damping_ratio : float
+        Medians over the members (Hz, -).
+    frequency_std_hz, damping_std : float
+        Standard deviations over the members (Hz, -): the spread across orders.
+    pole : complex
+        Median pole in rad/s (median of real and imaginary parts).
+    coverage : float
+        Fraction of the computed model orders represented in the cluster.
+    accepted : bool
+        Selected as a physical mode.
+    reason : str
+        Why it was accepted or rejected ('automatic', 'pinned', 'coverage',
+        'satellite', 'dropped').
+    """
+
+    members: np.ndarray
+    frequency_hz: float
+    damping_ratio: float
+    frequency_std_hz: float
+    damping_std: float
+    pole: complex
+    coverage: float
+    accepted: bool
+    reason: str
+
+
+@dataclass(frozen=True, eq=False)
+class Selection:
+    """Result of :func:`select_modes`.
+
+    Attributes
+    ----------
+    clusters : tuple of Cluster
+        All clusters, by ascending frequency (accepted and rejected).
+    settings : dict
+        The selection parameters used.
+    """
+
+    clusters: tuple[Cluster, ...]
+    settings: dict
+
+    @property
+    def modes(self) -> tuple[Cluster, ...]:
+        """The accepted clusters, by ascending frequency."""
+        return tuple(c for c in self.clusters if c.accepted)
+
+    @property
+    def poles(self) -> np.ndarray:
+        """Median poles of the accepted clusters, rad/s, shape (n_modes,)."""
+        return np.array([c.pole for c in self.modes], dtype=complex)
+
+
+def _make_cluster(p: Poles, idx: np.ndarray, n_orders: int, accepted: bool, reason: str):
+    fr = p.frequency_hz[idx]
+    ze = p.damping_ratio[idx]
+    lam = p.pole[idx]
+    return Cluster(
+        members=np.asarray(idx, dtype=int),
+        frequency_hz=float(np.median(fr)),
+        damping_ratio=float(np.median(ze)),
+        frequency_std_hz=float(np.std(fr, ddof=1)) if idx.size > 1 else 0.0,
+        damping_std=float(np.std(ze, ddof=1)) if idx.size > 1 else 0.0,
+        pole=complex(np.median(lam.real), np.median(lam.imag)),
+        coverage=len(np.unique(p.order[idx])) / n_orders,
+        accepted=accepted,
+        reason=reason,
+    )
+
+
+def select_modes(
+    poles: Poles,
+    *,
+    tol_frequency: float = 0.01,
+    tol_mac: float = 0.2,
+    min_coverage: float = 0.25,
+    max_damping: float = 0.2,
+    satellite_frequency: float = 0.015,
+    satellite_mac: float = 0.9,
+    pin_hz: Sequence[float] = (),
+    drop_hz: Sequence[float] = (),
+) -> Selection:
+    """Select the physical modes of a stabilisation diagram automatically.
+
+    Parameters
+    ----------
+    poles : Poles
+        Output of :func:`~exudyn_study.identify.polymax.polymax`.
+    tol_frequency : float, optional
+        Relative frequency distance that separates clusters (default 0.01).
+    tol_mac : float, optional
+        1 - MAC distance that separates clusters (default 0.2).
+    min_coverage : float, optional
+        Minimum fraction of the computed orders a cluster must span (default 0.25).
+    max_damping : float, optional
+        Upper bound of plausible damping ratios (default 0.2).
+    satellite_frequency, satellite_mac : float, optional
+        Satellite rejection: relative frequency distance (default 0.015) and MAC
+        (default 0.9) below/above which the lower-coverage cluster is rejected.
+    pin_hz : sequence of float, optional
+        Frequencies (Hz) of modes to force into the selection: the nearest cluster
+        within ``2 * tol_frequency`` is accepted even if its coverage is low.
+    drop_hz : sequence of float, optional
+        Frequencies (Hz) of accepted modes to remove (nearest within
+        ``2 * tol_frequency``).
+
+    Returns
+    -------
+    Selection
+
+    Raises
+    ------
+    InputError
+        On invalid settings, or a pin/drop frequency with no cluster near it.
+    """
+    for name, val in (("tol_frequency", tol_frequency), ("tol_mac", tol_mac),
+                      ("max_damping", max_damping)):
+        if not (np.isfinite(val) and val > 0):
+            raise InputError(f"{name}={val!r}: expected a positive number")
+    if not 0 < min_coverage <= 1:
+        raise InputError(f"min_coverage={min_coverage!r}: expected a fraction in (0, 1]")
+    n_orders = max(1, len(poles.orders))
+    cand = np.flatnonzero(
+        poles.stable_frequency & poles.stable_vector
+        & (poles.damping_ratio > 0) & (poles.damping_ratio < max_damping)
+    )
+    clusters: list[Cluster] = []
+    if cand.size == 1:
+        clusters.append(_make_cluster(poles, cand, n_orders, False, "coverage"))
+    elif cand.size > 1:
+        fr = poles.frequency_hz[cand]
+        rel = np.abs(fr[:, None] - fr[None, :]) / np.maximum(fr[:, None], fr[None, :])
+        vec = poles.vector[cand]
+        dmac = 1.0 - mac(vec.T, vec.T)
+        dist = np.maximum(rel / tol_frequency, dmac / tol_mac)
+        same = poles.order[cand][:, None] == poles.order[cand][None, :]
+        dist[same] = np.maximum(dist[same], 100.0)
+        np.fill_diagonal(dist, 0.0)
+        link = scipy.cluster.hierarchy.linkage(
+            scipy.spatial.distance.squareform(dist, checks=False), method="average"
+        )
+        labels = scipy.cluster.hierarchy.fcluster(link, t=1.0, criterion="distance")
+        for lab in np.unique(labels):
+            idx = cand[labels == lab]
+            # one pole per order: keep the member nearest the cluster median
+            keep = []
+            med = np.median(poles.frequency_hz[idx])
+            for o in np.unique(poles.order[idx]):
+                io = idx[poles.order[idx] == o]
+                keep.append(io[np.argmin(np.abs(poles.frequency_hz[io] - med))])
+            idx = np.array(sorted(keep))
+            cov = len(np.unique(poles.order[idx])) / n_orders
+            ok = cov >= min_coverage
+            clusters.append(_make_cluster(poles, idx, n_orders, ok,
+                                          "automatic" if ok else "coverage"))
+    clusters.sort(key=lambda c: c.frequency_hz)
+    # satellites: same shape, very close to a better-covered accepted cluster
+    rep = [poles.vector[c.members[np.argmin(np.abs(poles.frequency_hz[c.members]
+                                                   - c.frequency_hz))]] for c in clusters]
+    by_cov = sorted(range(len(clusters)), key=lambda i: -clusters[i].coverage)
+    for a_pos, i in enumerate(by_cov):
+        if not clusters[i].accepted:
+            continue
+        for j in by_cov[:a_pos]:
+            cj, ci = clusters[j], clusters[i]
+            if not cj.accepted:
+                continue
+            rel = abs(ci.frequency_hz - cj.frequency_hz) / max(ci.frequency_hz, cj.frequency_hz)
+            if rel < satellite_frequency and mac(rep[i], rep[j])[0, 0] > satellite_mac:
+                clusters[i] = _replace(ci, accepted=False, reason="satellite")
+                break
+
+    def nearest(f_hz: float, accepted_only: bool) -> int:
+        best, dbest = -1, np.inf
+        for i, c in enumerate(clusters):
+            if accepted_only and not c.accepted:
+                continue
+            d = abs(c.frequency_hz - f_hz) / f_hz
+            if d <= 2 * tol_frequency and d < dbest:
+                best, dbest = i, d
+        return best
+
+    for f_hz in drop_hz:
+        i = nearest(float(f_hz), True)
+        if i < 0:
+            raise InputError(
+                f"drop_hz {f_hz:g} Hz: no selected mode within {2 * tol_frequency:.0%}; "
+                f"selected: {', '.join(f'{c.frequency_hz:.2f}' for c in clusters if c.accepted)}"
+            )
+        clusters[i] = _replace(clusters[i], accepted=False, reason="dropped")
+    for f_hz in pin_hz:
+        i = nearest(float(f_hz), False)
+        if i < 0:
+            raise InputError(
+                f"pin_hz {f_hz:g} Hz: no stable poles within {2 * tol_frequency:.0%} of it in "
+                "the stabilisation diagram; widen the orders or check the band"
+            )
+        clusters[i] = _replace(clusters[i], accepted=True, reason="pinned")
+    settings = {"tol_frequency": tol_frequency, "tol_mac": tol_mac,
+                "min_coverage": min_coverage, "max_damping": max_damping,
+                "satellite_frequency": satellite_frequency, "satellite_mac": satellite_mac,
+                "pin_hz": [float(x) for x in pin_hz], "drop_hz": [float(x) for x in drop_hz]}
+    return Selection(clusters=tuple(clusters), settings=settings)
+
+
+def _replace(c: Cluster, **kw) -> Cluster:
+    import dataclasses
+
+    return dataclasses.replace(c, **kw)
