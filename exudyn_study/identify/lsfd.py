@@ -108,7 +108,7 @@ class LSFDResult:
 
 @dataclass(frozen=True)
 class Leakage:
-    """Welch settings of an estimated FRF, for the leakage-aware pole basis.
+    r"""Welch settings of an estimated FRF, for the leakage-aware pole basis.
 
     For a white reference signal, the expected Welch H1 estimate is the DFT of the
     sampled impulse response multiplied by the normalised autocorrelation of the

@@ -182,6 +182,25 @@ def _lag_sums(frf_w: np.ndarray, z: np.ndarray, pmax: int):
     return r0, q, t
 
 
+def _inverse_sqrt(r: np.ndarray) -> np.ndarray:
+    """Return W with ``W @ W.T`` = inverse (or pseudo-inverse) of the SPD matrix ``r``.
+
+    Cholesky when ``r`` is well conditioned; otherwise (a narrow band maps onto a
+    short arc of the unit circle and the z^r basis becomes nearly dependent at high
+    order) an eigen-decomposition dropping eigenvalues below 1e-12 of the largest.
+    """
+    try:
+        c = np.linalg.cholesky(r)
+        w = scipy.linalg.solve_triangular(c, np.eye(r.shape[0]), lower=True).T
+        if np.all(np.isfinite(w)) and np.linalg.cond(c) < 1e7:
+            return w
+    except np.linalg.LinAlgError:
+        pass
+    lam, v = np.linalg.eigh(r)
+    keep = lam > 1e-12 * lam.max()
+    return v[:, keep] / np.sqrt(lam[keep])
+
+
 def _toeplitz_index(n: int) -> np.ndarray:
     """Index array ``[r, s] -> (s - r) + (n - 1)`` for lags stored from -(n-1)."""
     r = np.arange(n)
@@ -286,10 +305,8 @@ def polymax(
         # S_o[r, (s, j)] = -Re sum_k z^(s-r) w_o H_oj ; layout [n1, n_out, n1, n_in]
         s_w = -np.real(q_w[:, :, lag]).transpose(2, 0, 3, 1)
         t_mat = np.real(t_l[:, :, lag]).transpose(2, 0, 3, 1).reshape(qdim, qdim)
-        chol = scipy.linalg.cho_factor(r_mat)
-        g = scipy.linalg.solve_triangular(
-            chol[0], s_w.reshape(n1, -1), trans="T", lower=chol[1]
-        ).reshape(n1, n_out, qdim)
+        w_half = _inverse_sqrt(r_mat)  # R^+ = W W^T
+        g = (w_half.T @ s_w.reshape(n1, -1)).reshape(-1, n_out, qdim)
         m_mat = t_mat - np.einsum("rok,rol->kl", g, g)
         pn = p * n_in
         try:
@@ -325,7 +342,7 @@ def polymax(
         else:
             # beta_o = -R^-1 S'_o alpha with unweighted S'
             s_raw = -np.real(q_raw[:, :, lag]).transpose(2, 0, 3, 1).reshape(n1, n_out * qdim)
-            b = -scipy.linalg.cho_solve(chol, s_raw).reshape(n1, n_out, n1 * n_in)
+            b = -(w_half @ (w_half.T @ s_raw)).reshape(n1, n_out, n1 * n_in)
             beta = b @ alpha.reshape(qdim, n_in)  # [n1, n_out, n_in]
             numer = np.einsum("roi,kr->koi", beta, zr[:, None] ** np.arange(n1)[None, :])
             vec = np.einsum("koi,ki->ko", numer, right)

@@ -12,10 +12,12 @@ therefore
    at distance 1, so two modes a little more than ``tol_frequency`` apart are
    resolved (1 % by default: modes 2 % apart are two clusters);
 3. accepts the clusters that hold poles from at least ``min_coverage`` of the
-   computed orders, and reports each with the median of its members as estimate
+   upper half of the computed orders (a physical pole persists once the order
+   suffices; a pole that stands for two close modes at low order disappears when
+   the order is high enough to split it), and reports each with the median of its members as estimate
    and their standard deviation as uncertainty;
 4. rejects *satellites*: an accepted cluster closer than ``satellite_frequency``
-   (relative) to a cluster of larger coverage with the same shape (MAC above
+   (relative) to an accepted cluster present at more orders, with the same shape (MAC above
    ``satellite_mac``). A lightly damped mode resolved by few spectral lines is
    smoothed by the spectral window into a peak no single pole pair fits, and
    over-modelling then adds a consistent extra pole pair beside it with the
@@ -65,8 +67,11 @@ class Cluster:
         Standard deviations over the members (Hz, -): the spread across orders.
     pole : complex
         Median pole in rad/s (median of real and imaginary parts).
+    n_orders : int
+        Number of distinct model orders represented (persistence from low orders).
     coverage : float
-        Fraction of the computed model orders represented in the cluster.
+        Fraction of the upper half of the computed model orders (orders at or
+        above the median order) represented in the cluster.
     accepted : bool
         Selected as a physical mode.
     reason : str
@@ -80,6 +85,7 @@ class Cluster:
     frequency_std_hz: float
     damping_std: float
     pole: complex
+    n_orders: int
     coverage: float
     accepted: bool
     reason: str
@@ -111,7 +117,7 @@ class Selection:
         return np.array([c.pole for c in self.modes], dtype=complex)
 
 
-def _make_cluster(p: Poles, idx: np.ndarray, n_orders: int, accepted: bool, reason: str):
+def _make_cluster(p: Poles, idx: np.ndarray, upper: np.ndarray, accepted: bool, reason: str):
     fr = p.frequency_hz[idx]
     ze = p.damping_ratio[idx]
     lam = p.pole[idx]
@@ -122,10 +128,15 @@ def _make_cluster(p: Poles, idx: np.ndarray, n_orders: int, accepted: bool, reas
         frequency_std_hz=float(np.std(fr, ddof=1)) if idx.size > 1 else 0.0,
         damping_std=float(np.std(ze, ddof=1)) if idx.size > 1 else 0.0,
         pole=complex(np.median(lam.real), np.median(lam.imag)),
-        coverage=len(np.unique(p.order[idx])) / n_orders,
+        n_orders=int(len(np.unique(p.order[idx]))),
+        coverage=_coverage(p, idx, upper),
         accepted=accepted,
         reason=reason,
     )
+
+
+def _coverage(p: Poles, idx: np.ndarray, upper: np.ndarray) -> float:
+    return float(np.isin(upper, p.order[idx]).sum()) / max(1, upper.size)
 
 
 def select_modes(
@@ -133,7 +144,7 @@ def select_modes(
     *,
     tol_frequency: float = 0.01,
     tol_mac: float = 0.2,
-    min_coverage: float = 0.25,
+    min_coverage: float = 0.5,
     max_damping: float = 0.2,
     satellite_frequency: float = 0.015,
     satellite_mac: float = 0.9,
@@ -151,12 +162,14 @@ def select_modes(
     tol_mac : float, optional
         1 - MAC distance that separates clusters (default 0.2).
     min_coverage : float, optional
-        Minimum fraction of the computed orders a cluster must span (default 0.25).
+        Minimum fraction of the upper half of the computed orders a cluster must
+        span (default 0.5).
     max_damping : float, optional
         Upper bound of plausible damping ratios (default 0.2).
     satellite_frequency, satellite_mac : float, optional
         Satellite rejection: relative frequency distance (default 0.015) and MAC
-        (default 0.9) below/above which the lower-coverage cluster is rejected.
+        (default 0.9) below/above which the cluster present at fewer orders is
+        rejected.
     pin_hz : sequence of float, optional
         Frequencies (Hz) of modes to force into the selection: the nearest cluster
         within ``2 * tol_frequency`` is accepted even if its coverage is low.
@@ -179,14 +192,15 @@ def select_modes(
             raise InputError(f"{name}={val!r}: expected a positive number")
     if not 0 < min_coverage <= 1:
         raise InputError(f"min_coverage={min_coverage!r}: expected a fraction in (0, 1]")
-    n_orders = max(1, len(poles.orders))
+    orders = np.asarray(poles.orders)
+    upper = orders[orders >= np.median(orders)]
     cand = np.flatnonzero(
         poles.stable_frequency & poles.stable_vector
         & (poles.damping_ratio > 0) & (poles.damping_ratio < max_damping)
     )
     clusters: list[Cluster] = []
     if cand.size == 1:
-        clusters.append(_make_cluster(poles, cand, n_orders, False, "coverage"))
+        clusters.append(_make_cluster(poles, cand, upper, False, "coverage"))
     elif cand.size > 1:
         fr = poles.frequency_hz[cand]
         rel = np.abs(fr[:, None] - fr[None, :]) / np.maximum(fr[:, None], fr[None, :])
@@ -209,15 +223,14 @@ def select_modes(
                 io = idx[poles.order[idx] == o]
                 keep.append(io[np.argmin(np.abs(poles.frequency_hz[io] - med))])
             idx = np.array(sorted(keep))
-            cov = len(np.unique(poles.order[idx])) / n_orders
-            ok = cov >= min_coverage
-            clusters.append(_make_cluster(poles, idx, n_orders, ok,
+            ok = _coverage(poles, idx, upper) >= min_coverage
+            clusters.append(_make_cluster(poles, idx, upper, ok,
                                           "automatic" if ok else "coverage"))
     clusters.sort(key=lambda c: c.frequency_hz)
     # satellites: same shape, very close to a better-covered accepted cluster
     rep = [poles.vector[c.members[np.argmin(np.abs(poles.frequency_hz[c.members]
                                                    - c.frequency_hz))]] for c in clusters]
-    by_cov = sorted(range(len(clusters)), key=lambda i: -clusters[i].coverage)
+    by_cov = sorted(range(len(clusters)), key=lambda i: -clusters[i].n_orders)
     for a_pos, i in enumerate(by_cov):
         if not clusters[i].accepted:
             continue
