@@ -43,7 +43,9 @@ def band_mask(freq_hz: np.ndarray, band_hz) -> np.ndarray:
         try:
             band = tuple(float(b) for b in band_hz)
         except (TypeError, ValueError):
-            raise InputError(f"band_hz={band_hz!r}: expected two numbers (fmin, fmax) in Hz")
+            raise InputError(
+                f"band_hz={band_hz!r}: expected two numbers (fmin, fmax) in Hz"
+            ) from None
         if len(band) != 2:
             raise InputError(f"band_hz={band_hz!r}: expected two numbers (fmin, fmax) in Hz")
     fmin, fmax = band

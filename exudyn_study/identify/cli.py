@@ -1,8 +1,8 @@
-"""``exudyn-study identify``: modes from a recording (HDF5 or UFF58) to a modes JSON.
+r"""``exudyn-study identify``: modes from a recording (HDF5 or UFF58) to a modes JSON.
 
 Example::
 
-    exudyn-study identify run.h5 --reference ARFVZ --band 3 50 --resolution 0.2 \\
+    exudyn-study identify run.h5 --reference ARFVZ --band 3 50 --resolution 0.2 \
         --estimator Hv --json modes.json --plots figs/
 
 Bad input (unknown reference, mixed rates, NaN samples, a band beyond Nyquist, a

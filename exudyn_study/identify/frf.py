@@ -125,7 +125,7 @@ def segment_length(sample_rate_hz: float, resolution_hz: float) -> int:
 
 
 def n_averages(n_samples: int, n_segment: int, overlap: float) -> int:
-    """Number of Welch segments of ``n_segment`` samples with fractional ``overlap``."""
+    """Return the number of Welch segments of ``n_segment`` samples with ``overlap``."""
     step = max(1, int(round(n_segment * (1 - overlap))))
     if n_samples < n_segment:
         return 0
@@ -223,7 +223,9 @@ def estimate_frf(
             f"(at most {max(1, navg)} averages fit) or a longer record"
         )
     if mimo and estimator == "H2":
-        raise InputError("estimator 'H2' with mimo=True: H2 is defined for one reference; use H1 or Hv")
+        raise InputError(
+            "estimator 'H2' with mimo=True: H2 is defined for one reference; use H1 or Hv"
+        )
     step = max(1, int(round(nseg * (1 - overlap))))
     win = scipy.signal.get_window(window, nseg)
     scale = 2.0 / (sample_rate_hz * np.sum(win**2))

@@ -1,10 +1,10 @@
-"""Least-squares frequency-domain (LSFD) residues, shapes, synthesis and pole refinement.
+r"""Least-squares frequency-domain (LSFD) residues, shapes, synthesis and pole refinement.
 
 With the poles fixed, every FRF is linear in its residues and residual terms:
 
-.. math:: H_{oi}(\\omega) = \\sum_k \\frac{R_{oik}}{j\\omega-\\lambda_k}
-          + \\frac{R^*_{oik}}{j\\omega-\\lambda^*_k}
-          + L_{oi} (j\\omega)^{a} + U_{oi} (j\\omega)^{b},
+.. math:: H_{oi}(\omega) = \sum_k \frac{R_{oik}}{j\omega-\lambda_k}
+          + \frac{R^*_{oik}}{j\omega-\lambda^*_k}
+          + L_{oi} (j\omega)^{a} + U_{oi} (j\omega)^{b},
 
 where the lower residual :math:`L` stands for the modes below the band and the
 upper residual :math:`U` for those above it; the powers depend on the FRF form
@@ -442,11 +442,11 @@ def refine_poles(
 def welch_expectation(
     result: LSFDResult, freq_hz: np.ndarray, leakage: Leakage, estimator: str
 ) -> np.ndarray:
-    """Expected Welch estimate of the modal model in ``result`` (white reference).
+    r"""Return the expected Welch estimate of the modal model in ``result``.
 
     The model FRF :math:`H` is smoothed by the spectral window
     :math:`K = |W|^2` (unit sum): :math:`E[H_1] = K * H`,
-    :math:`E[H_v] = (K*H)/|K*H| \\sqrt{K*|H|^2}`, :math:`E[H_2] = (K*|H|^2)/(K*H)^*`
+    :math:`E[H_v] = (K*H)/|K*H| \sqrt{K*|H|^2}`, :math:`E[H_2] = (K*|H|^2)/(K*H)^*`
     (ratios of expected spectra, single reference per column).
 
     Parameters

@@ -35,10 +35,10 @@ def _as_shapes(phi, name: str) -> np.ndarray:
 
 
 def mac(phi_a, phi_b) -> np.ndarray:
-    """Modal assurance criterion between two sets of shapes.
+    r"""Modal assurance criterion between two sets of shapes.
 
-    .. math:: \\mathrm{MAC}_{kl} = \\frac{|\\phi_{a,k}^H \\phi_{b,l}|^2}
-              {(\\phi_{a,k}^H\\phi_{a,k})(\\phi_{b,l}^H\\phi_{b,l})}
+    .. math:: \mathrm{MAC}_{kl} = \frac{|\phi_{a,k}^H \phi_{b,l}|^2}
+              {(\phi_{a,k}^H\phi_{a,k})(\phi_{b,l}^H\phi_{b,l})}
 
     (thesis eq. 39, with the Hermitian transpose for complex shapes).
 
@@ -78,10 +78,10 @@ def automac(phi) -> np.ndarray:
 
 
 def mpc(phi) -> np.ndarray:
-    """Modal phase collinearity per mode (1 for a real/normal mode, 0 for a circular one).
+    r"""Modal phase collinearity per mode (1 for a real/normal mode, 0 for a circular one).
 
     Computed from the eigenvalues of the 2x2 covariance of real and imaginary
-    parts, :math:`\\mathrm{MPC} = ((\\mu_1-\\mu_2)/(\\mu_1+\\mu_2))^2` (Vacher et al.
+    parts, :math:`\mathrm{MPC} = ((\mu_1-\mu_2)/(\mu_1+\mu_2))^2` (Vacher et al.
     2010), which is independent of the shape's complex scaling.
 
     Parameters

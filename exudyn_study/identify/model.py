@@ -58,7 +58,7 @@ def _opt_float(value, name: str, who: str, lo=None, hi=None):
     try:
         v = float(value)
     except (TypeError, ValueError):
-        raise InputError(f"{who}: {name}={value!r}: expected a number or null")
+        raise InputError(f"{who}: {name}={value!r}: expected a number or null") from None
     if not math.isfinite(v) or (lo is not None and v < lo) or (hi is not None and v > hi):
         rng = f" in [{lo}, {hi}]" if hi is not None else (f" >= {lo}" if lo is not None else "")
         raise InputError(f"{who}: {name}={value!r}: expected a finite number{rng}")
@@ -196,7 +196,7 @@ class ModalModel:
         try:
             json.dumps(dict(self.metadata))
         except (TypeError, ValueError) as exc:
-            raise InputError(f"metadata: expected JSON-serialisable values ({exc})")
+            raise InputError(f"metadata: expected JSON-serialisable values ({exc})") from None
         object.__setattr__(self, "metadata", dict(self.metadata))
 
     def __len__(self) -> int:
@@ -248,7 +248,7 @@ class ModalModel:
         try:
             doc = json.loads(text)
         except json.JSONDecodeError as exc:
-            raise InputError(f"modes JSON: not valid JSON ({exc})")
+            raise InputError(f"modes JSON: not valid JSON ({exc})") from None
         if not isinstance(doc, Mapping) or not isinstance(doc.get("modes"), list):
             raise InputError("modes JSON: expected an object with a 'modes' list")
         fmt = doc.get("format", FORMAT_NAME)

@@ -153,7 +153,7 @@ def identify_frf(
     phase_coll = mpc(fit.shapes)
     modes = []
     for k, c in enumerate(sel.modes):
-        shape = {n: complex(v) for n, v in zip(names, fit.shapes[:, k])}
+        shape = {n: complex(v) for n, v in zip(names, fit.shapes[:, k], strict=True)}
         modes.append(Mode(
             frequency_hz=float(fit.frequency_hz[k]),
             damping_ratio=float(max(fit.damping_ratio[k], 0.0)),
@@ -225,7 +225,9 @@ def identify(
         try:
             lo, hi = (float(b) for b in band_hz)
         except (TypeError, ValueError):
-            raise InputError(f"band {band_hz!r}: expected two frequencies FMIN FMAX in Hz")
+            raise InputError(
+                f"band {band_hz!r}: expected two frequencies FMIN FMAX in Hz"
+            ) from None
         if not (0 <= lo < hi <= nyq):
             raise InputError(
                 f"band {lo:g}-{hi:g} Hz: expected 0 <= FMIN < FMAX <= Nyquist ({nyq:g} Hz "

@@ -122,7 +122,7 @@ def plot_frf_fit(result, path: str | os.PathLike, channels: Sequence[str] | None
     nrow = int(np.ceil(len(idx) / ncol))
     fig, axes = plt.subplots(nrow, ncol, figsize=(13, 2.6 * nrow), squeeze=False,
                              sharex=True)
-    for ax, i in zip(axes.ravel(), idx):
+    for ax, i in zip(axes.ravel(), idx, strict=False):
         ax.semilogy(frf.freq_hz[sel], np.abs(frf.H[i, 0, sel]), color="tab:red", lw=1.0,
                     label="measured")
         if fit is not None:
@@ -148,7 +148,7 @@ def plot_frf_fit(result, path: str | os.PathLike, channels: Sequence[str] | None
 def plot_mac(matrix: np.ndarray, path: str | os.PathLike, *,
              row_labels: Sequence[str] | None = None, col_labels: Sequence[str] | None = None,
              title: str = "MAC") -> Path:
-    """A MAC matrix as a colour map with values.
+    """Plot a MAC matrix as a colour map with values.
 
     Parameters
     ----------
@@ -230,7 +230,7 @@ def plot_mode_shapes(model, positions_m: Mapping[str, Sequence[float]],
         tip = pos + scale * size * r[:, None] * dirs
         ax.scatter(pos[:, 0], pos[:, 1], pos[:, 2], s=6, c="0.4")
         colors = np.where(r >= 0, "tab:red", "tab:blue")
-        for p0, p1, col in zip(pos, tip, colors):
+        for p0, p1, col in zip(pos, tip, colors, strict=True):
             ax.plot([p0[0], p1[0]], [p0[1], p1[1]], [p0[2], p1[2]], color=col, lw=1.5)
         ax.set_title(f"{k + 1}: {mode.frequency_hz:.2f} Hz, {100 * mode.damping_ratio:.2f} %",
                      fontsize=9)

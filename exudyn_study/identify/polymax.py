@@ -1,11 +1,11 @@
-"""Poly-reference least-squares complex frequency-domain estimator (PolyMAX).
+r"""Poly-reference least-squares complex frequency-domain estimator (PolyMAX).
 
 The FRF matrix in a band is fitted, for a sequence of model orders, with a right
 matrix-fraction model in the z-domain (real polynomial coefficients)
 
-.. math:: H_o(\\omega) = N_o(z) D(z)^{-1}, \\quad z = e^{j \\omega \\Delta t},
-          \\quad N_o(z) = \\sum_{r=0}^{p} \\beta_{o,r} z^r,
-          \\quad D(z) = \\sum_{r=0}^{p} \\alpha_r z^r,\\ \\alpha_p = I,
+.. math:: H_o(\omega) = N_o(z) D(z)^{-1}, \quad z = e^{j \omega \Delta t},
+          \quad N_o(z) = \sum_{r=0}^{p} \beta_{o,r} z^r,
+          \quad D(z) = \sum_{r=0}^{p} \alpha_r z^r,\ \alpha_p = I,
 
 whose linearised least-squares problem is reduced to the denominator coefficients
 only (Peeters et al. 2004, eqs. 5-10). The poles are the eigenvalues of the block
@@ -47,17 +47,17 @@ STABILITY_DEFAULTS = {"tol_frequency": 0.01, "tol_damping": 0.05, "tol_vector": 
 
 
 def pole_to_modal(pole: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
-    """Return undamped natural frequency in Hz and damping ratio of continuous poles.
+    r"""Return undamped natural frequency in Hz and damping ratio of continuous poles.
 
     Parameters
     ----------
     pole : array_like of complex
-        Poles :math:`\\lambda = -\\zeta\\omega_n + j\\omega_n\\sqrt{1-\\zeta^2}` in rad/s.
+        Poles :math:`\lambda = -\zeta\omega_n + j\omega_n\sqrt{1-\zeta^2}` in rad/s.
 
     Returns
     -------
     frequency_hz, damping_ratio : ndarray
-        :math:`|\\lambda| / 2\\pi` and :math:`-\\mathrm{Re}\\,\\lambda / |\\lambda|`.
+        :math:`|\lambda| / 2\pi` and :math:`-\mathrm{Re}\,\lambda / |\lambda|`.
     """
     pole = np.asarray(pole, dtype=complex)
     wn = np.abs(pole)
@@ -67,7 +67,7 @@ def pole_to_modal(pole: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
 
 
 def modal_to_pole(frequency_hz, damping_ratio) -> np.ndarray:
-    """Return the continuous pole (upper half plane, rad/s) of a mode.
+    r"""Return the continuous pole (upper half plane, rad/s) of a mode.
 
     Parameters
     ----------
@@ -79,7 +79,7 @@ def modal_to_pole(frequency_hz, damping_ratio) -> np.ndarray:
     Returns
     -------
     ndarray of complex
-        :math:`-\\zeta\\omega_n + j\\omega_n\\sqrt{1-\\zeta^2}`.
+        :math:`-\zeta\omega_n + j\omega_n\sqrt{1-\zeta^2}`.
     """
     wn = 2 * np.pi * np.asarray(frequency_hz, dtype=float)
     zeta = np.asarray(damping_ratio, dtype=float)

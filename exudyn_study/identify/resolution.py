@@ -1,8 +1,8 @@
-"""Frequency resolution versus damping: the spectral-line check and a suggestion.
+r"""Frequency resolution versus damping: the spectral-line check and a suggestion.
 
-A mode of natural frequency :math:`f` and damping ratio :math:`\\zeta` has a
-half-power bandwidth of :math:`2\\zeta f`. With line spacing :math:`\\Delta f` it
-spans :math:`n = 2\\zeta f/\\Delta f` lines. Below about five lines the Welch
+A mode of natural frequency :math:`f` and damping ratio :math:`\zeta` has a
+half-power bandwidth of :math:`2\zeta f`. With line spacing :math:`\Delta f` it
+spans :math:`n = 2\zeta f/\Delta f` lines. Below about five lines the Welch
 spectral window (Hann: main lobe four lines wide) smooths the peak noticeably and
 biases the damping upwards (the thesis's 47.6 Hz / 0.53 % mode at 0.2 Hz spans
 about 2.5 lines). A finer resolution needs longer segments, hence fewer averages
@@ -30,7 +30,7 @@ MIN_LINES = 5.0
 
 
 def lines_in_half_power(frequency_hz, damping_ratio, resolution_hz: float) -> np.ndarray:
-    """Number of spectral lines in the half-power bandwidth ``2 zeta f / df``.
+    """Return the number of lines in the half-power bandwidth, ``2 zeta f / df``.
 
     Parameters
     ----------
@@ -91,9 +91,9 @@ def suggest_resolution(
     min_averages: int = 20,
     overlap: float = 0.5,
 ) -> ResolutionAdvice:
-    """Suggest a resolution giving ``min_lines`` lines in the narrowest bandwidth.
+    r"""Suggest a resolution giving ``min_lines`` lines in the narrowest bandwidth.
 
-    The narrowest half-power bandwidth :math:`\\min 2\\zeta f` sets
+    The narrowest half-power bandwidth :math:`\min 2\zeta f` sets
     ``df <= min(2 zeta f) / min_lines``; the value is rounded down to 1, 2 or 5
     times a power of ten. With ``duration_s`` the record must also give at least
     ``min_averages`` Welch averages; when both cannot be met the finest resolution
@@ -173,7 +173,7 @@ def resolution_warnings(frequency_hz, damping_ratio, resolution_hz: float, *,
     fr = np.asarray(frequency_hz, float)
     ze = np.asarray(damping_ratio, float)
     n = lines_in_half_power(fr, ze, resolution_hz)
-    low = [(f, z, k) for f, z, k in zip(fr, ze, n) if k < min_lines]
+    low = [(f, z, k) for f, z, k in zip(fr, ze, n, strict=True) if k < min_lines]
     if not low:
         return []
     listing = ", ".join(f"{f:.2f} Hz/{100 * z:.2f} % ({k:.1f} lines)" for f, z, k in low)

@@ -7,15 +7,16 @@ therefore
 1. keeps the candidate poles: stable in frequency and vector against the previous
    order, with a damping ratio in ``(0, max_damping)``;
 2. clusters them hierarchically (average linkage) with a scale-free distance,
-   ``max(|f_i - f_j| / f / tol_frequency, (1 - MAC_ij) / tol_mac)``, where poles of
+   ``max(|f_i - f_j| / f / tol_frequency, (1 - MAC_ij) / tol_mac)``, where poles
+   of
    the same model order are kept apart (one pole per order and mode); the cut is
    at distance 1, so two modes a little more than ``tol_frequency`` apart are
    resolved (1 % by default: modes 2 % apart are two clusters);
 3. accepts the clusters that hold poles from at least ``min_coverage`` of the
    upper half of the computed orders (a physical pole persists once the order
    suffices; a pole that stands for two close modes at low order disappears when
-   the order is high enough to split it), and reports each with the median of its members as estimate
-   and their standard deviation as uncertainty;
+   the order is high enough to split it), and reports each with the median of
+   its members as estimate and their standard deviation as uncertainty;
 4. rejects *satellites*: an accepted cluster closer than ``satellite_frequency``
    (relative) to an accepted cluster present at more orders, with the same shape (MAC above
    ``satellite_mac``). A lightly damped mode resolved by few spectral lines is

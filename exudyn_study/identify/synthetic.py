@@ -1,4 +1,4 @@
-"""Synthetic systems with known poles and shapes, for tests and benchmarks.
+r"""Synthetic systems with known poles and shapes, for tests and benchmarks.
 
 Two generators:
 
@@ -16,13 +16,13 @@ Two generators:
 Model of the base-excited structure (relative modal coordinates :math:`q_k`,
 base acceleration :math:`a_b`):
 
-.. math:: \\ddot q_k + 2\\zeta_k\\omega_k\\dot q_k + \\omega_k^2 q_k = -\\Gamma_k a_b,
-          \\qquad a_o = r_o a_b + \\sum_k \\phi_{ok}\\ddot q_k,
+.. math:: \ddot q_k + 2\zeta_k\omega_k\dot q_k + \omega_k^2 q_k = -\Gamma_k a_b,
+          \qquad a_o = r_o a_b + \sum_k \phi_{ok}\ddot q_k,
 
 so the acceleration transmissibility is
-:math:`T_o(\\omega) = r_o + \\sum_k \\phi_{ok}\\Gamma_k\\omega^2 /
-(\\omega_k^2 - \\omega^2 + 2j\\zeta_k\\omega_k\\omega)`, whose poles are those of
-the structure and whose residues are proportional to :math:`\\phi_{ok}`.
+:math:`T_o(\omega) = r_o + \sum_k \phi_{ok}\Gamma_k\omega^2 /
+(\omega_k^2 - \omega^2 + 2j\zeta_k\omega_k\omega)`, whose poles are those of
+the structure and whose residues are proportional to :math:`\phi_{ok}`.
 """
 
 from __future__ import annotations
@@ -109,10 +109,10 @@ def pole_residue_frf(
     *,
     constant: np.ndarray | None = None,
 ) -> np.ndarray:
-    """Exact FRFs of a pole-residue model with conjugate pole pairs.
+    r"""Exact FRFs of a pole-residue model with conjugate pole pairs.
 
-    .. math:: H_{oi}(\\omega) = c_{oi} + \\sum_k \\frac{R_{oik}}{j\\omega-\\lambda_k}
-              + \\frac{R^*_{oik}}{j\\omega-\\lambda^*_k}
+    .. math:: H_{oi}(\omega) = c_{oi} + \sum_k \frac{R_{oik}}{j\omega-\lambda_k}
+              + \frac{R^*_{oik}}{j\omega-\lambda^*_k}
 
     Parameters
     ----------
@@ -225,7 +225,7 @@ class BaseExcitedSystem:
 
 
 def table1_system(n_channels: int = 36, seed: int = 1) -> BaseExcitedSystem:
-    """The ten modes of thesis Table 1 on the thesis's response channels.
+    """Return the ten modes of thesis Table 1 on the thesis's response channels.
 
     Mode shapes are smooth random fields over the sensor positions (seeded), with
     modes 8 and 9 (both "frame bending about y") made correlated as in thesis

@@ -9,7 +9,7 @@ import pytest
 
 from exudyn_study.cli import main
 from exudyn_study.identify import read_modes_json
-from exudyn_study.identify.synthetic import table1_system, simulate, to_recording
+from exudyn_study.identify.synthetic import simulate, table1_system, to_recording
 from exudyn_study.recording import Channel, Recording, write_recording
 
 

@@ -6,7 +6,7 @@ import numpy as np
 import pytest
 
 from exudyn_study.identify import identify, mac
-from exudyn_study.identify.synthetic import table1_system, simulate
+from exudyn_study.identify.synthetic import simulate, table1_system
 
 # acceptance tolerances of issue 4 (Hv, 0.2 Hz resolution, 2 % noise)
 FREQ_RTOL = 0.002  # |df| <= 0.2 %
