@@ -26,6 +26,8 @@ __all__ = ["SUBCOMMANDS", "main"]
 SUBCOMMANDS: dict[str, tuple[str, str]] = {
     "demo": ("exudyn_study.studies_cli.demo", "run the demo study on shipped settings"),
     "reduce": ("exudyn_study.studies_cli.reduce", "mesh, assemble and reduce a flexible body"),
+    "modes": ("exudyn_study.rig_cli", "system modes of a model variant (frequencies, damping, shapes)"),
+    "simulate": ("exudyn_study.rig_cli_simulate", "simulate a model variant on the rig into a recording"),
     "identify": ("exudyn_study.identify.cli", "identify modes (PolyMAX) from a recording"),
     "damage": ("exudyn_study.fatigue_cli", "relative pseudo damage between two recordings"),
 }
