@@ -24,8 +24,8 @@ __all__ = ["SUBCOMMANDS", "main"]
 
 #: subcommand name -> (module implementing configure/run, one-line help)
 SUBCOMMANDS: dict[str, tuple[str, str]] = {
-    "demo": ("exudyn_study.studies_cli.demo", "run the demo study on shipped settings"),
-    "reduce": ("exudyn_study.studies_cli.reduce", "mesh, assemble and reduce a flexible body"),
+    "demo": ("exudyn_study.commands.demo", "run the demo study on shipped settings"),
+    "reduce": ("exudyn_study.commands.reduce", "mesh, assemble and reduce a flexible body"),
     "modes": ("exudyn_study.rig_cli", "system modes of a model variant (frequencies, damping, shapes)"),
     "simulate": ("exudyn_study.rig_cli_simulate", "simulate a model variant on the rig into a recording"),
     "identify": ("exudyn_study.identify.cli", "identify modes (PolyMAX) from a recording"),

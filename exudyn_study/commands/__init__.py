@@ -1,0 +1,1 @@
+"""Subcommands of the ``exudyn-study`` console script that are not part of a library subpackage."""
