@@ -239,8 +239,11 @@ def flexible_body(spec: BodySpec = BodySpec(), cache_dir=None, use_cache: bool =
     def build() -> dict[str, np.ndarray]:
         fe_model, interfaces = fe_model_and_interfaces(spec, timings)
         t0 = time.perf_counter()
-        body = craig_bampton(fe_model, interfaces, spec.reduction, name=spec.name)
+        steps: dict[str, float] = {}
+        body = craig_bampton(fe_model, interfaces, spec.reduction, name=spec.name, timings=steps)
         timings["reduction"] = time.perf_counter() - t0
+        timings.update({f"reduction.{k}": v for k, v in steps.items()})
+        timings["dof"] = float(fe_model.n_dof)
         t0 = time.perf_counter()
         ffrf = ffrf_data(body)
         timings["ffrf_terms"] = time.perf_counter() - t0
