@@ -30,6 +30,8 @@ SUBCOMMANDS: dict[str, tuple[str, str]] = {
     "simulate": ("exudyn_study.rig_cli_simulate", "simulate a model variant on the rig into a recording"),
     "identify": ("exudyn_study.identify.cli", "identify modes (PolyMAX) from a recording"),
     "damage": ("exudyn_study.fatigue_cli", "relative pseudo damage between two recordings"),
+    "calibrate": ("exudyn_study.calibrate_cli", "choose flexible-body modal damping to match identified modes"),
+    "sweep": ("exudyn_study.sweep.cli", "run a parameter sweep from a TOML file (process pool or Dask)"),
 }
 
 
