@@ -50,7 +50,8 @@ def main(argv=None) -> None:
         assert c1 == c2, "results differ between 1 and 2 workers"
         print(f"[{rep}] 1 worker: {t1:7.2f} s ({n1:.2f} cores obtained, load {la1:.1f})   "
               f"2 workers: {t2:7.2f} s ({n2:.2f} cores, load {la2:.1f})   speed-up {t1 / t2:.2f}x   "
-              f"(ideal on an idle machine: {args.points * args.cpu_s:.1f} s / {args.points * args.cpu_s / 2:.1f} s)")
+              f"(ideal on an idle machine: {args.points * args.cpu_s:.1f} s / "
+              f"{args.points * args.cpu_s / 2:.1f} s)")
     print(f"load average after: {os.getloadavg()}")
 
 

@@ -144,7 +144,8 @@ def test_random_sampling_is_seeded_and_within_the_ranges():
     assert [p.key for p in a] == [p.key for p in b] != [p.key for p in c]
     assert len(a) == 25  # continuous values: no duplicates
     assert all(0.1 <= p.params["seconds"] <= 0.2 and p.params["size"] in (5, 6, 7) for p in a)
-    logs = expand_points(_config("damping_sensitivity", parameters={"damping_scale": {"logspace": [-1, 1, 2]}},
+    logs = expand_points(_config("damping_sensitivity",
+                                 parameters={"damping_scale": {"logspace": [-1, 1, 2]}},
                                  mode="random", samples=200, seed=1))
     values = [p.params["damping_scale"] for p in logs]
     assert min(values) >= 0.1 and max(values) <= 10 and sum(v < 1 for v in values) > 60  # log-uniform

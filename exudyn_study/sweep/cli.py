@@ -53,7 +53,9 @@ def run(args: argparse.Namespace) -> int:
     task = get_task(config.task)
     points = expand_points(config)
     if args.plot_x is not None and args.plot_x not in config.swept:
-        raise InputError(f"--plot-x {args.plot_x!r}: expected one of the swept parameters {list(config.swept)}")
+        raise InputError(
+            f"--plot-x {args.plot_x!r}: expected one of the swept parameters {list(config.swept)}"
+        )
     out = Path(args.out) if args.out else Path("sweep-results") / config.name
     if args.dry_run:
         print(f"{config.name}: task {task.name}, {len(points)} point(s), mode {config.mode}")

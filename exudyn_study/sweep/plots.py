@@ -89,7 +89,8 @@ def plot_sweep(rows: Sequence[Mapping[str, Any]], config: SweepConfig, task: Tas
         xs = sorted(xs)
     ncol = min(len(groups), 2 if len(groups) > 1 else 1)
     nrow = math.ceil(len(groups) / ncol)
-    fig, axes = plt.subplots(nrow, ncol, figsize=(7.5 * ncol if not is_num else 6 * ncol + 2, 3.8 * nrow + 0.4),
+    width = 7.5 * ncol if not is_num else 6 * ncol + 2
+    fig, axes = plt.subplots(nrow, ncol, figsize=(width, 3.8 * nrow + 0.4),
                              squeeze=False, layout="constrained")
     all_vals = [r[c] for r in ok for c in family if isinstance(r.get(c), (int, float))]
     positive = [v for v in all_vals if v is not None and v > 0 and math.isfinite(v)]
@@ -134,7 +135,8 @@ def plot_sweep(rows: Sequence[Mapping[str, Any]], config: SweepConfig, task: Tas
         ax.set_visible(False)
     handles, labels = axes.ravel()[0].get_legend_handles_labels()
     if is_num:
-        fig.legend(handles, labels, loc="outside right center", fontsize=7, ncols=2 if len(family) > 16 else 1)
+        fig.legend(handles, labels, loc="outside right center", fontsize=7,
+                   ncols=2 if len(family) > 16 else 1)
     else:
         fig.legend(handles, labels, loc="outside lower center", fontsize=8, ncols=min(len(xs), 6))
     fig.suptitle(f"{config.name}: {task.name} against {x}", fontsize=10)
