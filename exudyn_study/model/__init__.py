@@ -1,0 +1,34 @@
+"""The rig, the sensors and the thesis's model variants 1-3 in Exudyn.
+
+>>> from exudyn_study.model import build_model            # doctest: +SKIP
+>>> model = build_model(1, damping="adams-default")       # doctest: +SKIP
+>>> model.assemble()                                       # doctest: +SKIP
+"""
+
+from .rig import Drive, RigHandles, RigParameters
+from .variants import (
+    FORMULATIONS,
+    VARIANTS,
+    BushingParameters,
+    InterfaceHandle,
+    Model,
+    SensorAttachment,
+    build_model,
+    build_model_from_bodies,
+    model_bodies,
+)
+
+__all__ = [
+    "Drive",
+    "RigHandles",
+    "RigParameters",
+    "FORMULATIONS",
+    "VARIANTS",
+    "BushingParameters",
+    "InterfaceHandle",
+    "Model",
+    "SensorAttachment",
+    "build_model",
+    "build_model_from_bodies",
+    "model_bodies",
+]

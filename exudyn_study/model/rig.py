@@ -1,0 +1,364 @@
+"""The uni-axial test rig of the thesis (Section 3.2, 4.2) from Exudyn rigid bodies and joints.
+
+Layout (local rig coordinates, m; ``x`` rearwards, ``y`` to the right, ``z`` up)::
+
+      frame drive pads (front_left_drive / front_right_drive)
+              |  spherical joints                       rear attachments
+       strut  |  strut (rigid, universal joint below)       |  spherical joints
+              |                                        rear foundation (flexible body,
+   linkage ===+=== (rigid, revolute about y to ground)      two interfaces fixed to ground)
+              |  pin (x and z), piston
+        piston|  prismatic along z, prescribed displacement u(t)
+      cylinder|  revolute about y to ground
+
+- the hydraulic cylinder is jointed to ground, rotation about y only;
+- the piston sits on the cylinder with a joint that constrains all six relative
+  coordinates, the one along the cylinder axis to the drive ``u(t)`` (a prismatic joint
+  with a prescribed displacement: ``ObjectJointGeneric`` with an offset user function);
+- the piston is pinned to the linkage (x and z; the planar loop needs no y constraint,
+  a spherical joint there would be redundant for rigid parts);
+- the linkage rotates about y on ground; its lever ratio is 1 (the pin and the strut
+  feet sit at the drive pads' x), so the frame front follows the drive displacement;
+- two rigid struts carry the motion to the frame's front drive pads (universal joint at
+  the linkage, spherical joint at the frame);
+- a front-attachment strut along y (universal joint at ground, spherical at the frame's
+  ``front_strut`` patch) restrains the frame's y motion;
+- the rear foundation is a flexible body: ``ground_left``/``ground_right`` fixed to
+  ground, ``frame_left``/``frame_right`` spherical to the frame's rear attachments,
+  so the frame can rotate about y at the rear.
+
+No gravity: the study is of small vibrations about the static equilibrium (the rig's
+static preload is not part of the measured response).
+
+The drive is a :class:`Drive`: a time series interpolated by a cubic spline (so the
+displacement, velocity and acceleration seen by Exudyn are continuous and the linear
+path in :mod:`exudyn_study.simulate` can discretise the same input exactly).
+"""
+
+from __future__ import annotations
+
+import math
+from dataclasses import dataclass, field
+
+import numpy as np
+
+from ..errors import InputError
+
+__all__ = ["RigParameters", "RigHandles", "Drive", "add_rig", "generic_joint", "ground_marker"]
+
+@dataclass(frozen=True)
+class RigParameters:
+    """Dimensions (m) and masses (kg) of the rig's rigid parts (tape-measure estimates).
+
+    Parameters
+    ----------
+    linkage_z_m : float
+        Height of the linkage (its pivot, the piston pin and the strut feet).
+    linkage_pivot_x_m : float
+        x of the linkage's pivot on ground (the pin and strut feet are at the drive pads' x).
+    cylinder_base_z_m : float
+        Height of the cylinder's pivot on ground (below the piston pin).
+    cylinder_length_m : float
+        Length of the cylinder barrel; the piston rod makes up the rest to the pin.
+    front_strut_length_m : float
+        Length of the y-restraining front strut, from ground to the ``front_strut`` patch.
+    cylinder_mass_kg, piston_mass_kg, linkage_mass_kg, strut_mass_kg, front_strut_mass_kg : float
+    """
+
+    linkage_z_m: float = -0.45
+    linkage_pivot_x_m: float = -0.90
+    cylinder_base_z_m: float = -1.25
+    cylinder_length_m: float = 0.45
+    front_strut_length_m: float = 0.60
+    cylinder_mass_kg: float = 45.0
+    piston_mass_kg: float = 12.0
+    linkage_mass_kg: float = 40.0
+    strut_mass_kg: float = 4.0
+    front_strut_mass_kg: float = 3.0
+
+    def __post_init__(self) -> None:
+        for name in ("cylinder_mass_kg", "piston_mass_kg", "linkage_mass_kg", "strut_mass_kg",
+                     "front_strut_mass_kg", "cylinder_length_m", "front_strut_length_m"):
+            v = getattr(self, name)
+            if not (math.isfinite(v) and v > 0):
+                raise InputError(f"RigParameters.{name} = {v!r}; expected a positive finite value")
+        if not self.cylinder_base_z_m + self.cylinder_length_m < self.linkage_z_m:
+            raise InputError(
+                f"RigParameters: cylinder (base z {self.cylinder_base_z_m} m + length "
+                f"{self.cylinder_length_m} m) must end below the linkage (z {self.linkage_z_m} m)"
+            )
+
+
+class Drive:
+    """Prescribed piston displacement ``u(t)`` (m): a cubic spline through samples.
+
+    Before :meth:`set_signal` the drive is zero. Outside the sampled interval the end
+    values are held (with zero velocity).
+    """
+
+    def __init__(self) -> None:
+        self.sample_rate_hz = 1.0
+        self.samples = np.zeros(2)
+        self._coef = np.zeros((4, 1))  # c0 dt^3 + c1 dt^2 + c2 dt + c3 on each interval
+        self.joint = None  # Exudyn object number of the driven joint (set by add_rig)
+        self.axis = 2  # driven coordinate of the joint (z of its joint frame)
+
+    def set_signal(self, samples, sample_rate_hz: float) -> None:
+        """Use ``samples`` (m) at ``sample_rate_hz`` as the drive (natural cubic spline).
+
+        Raises
+        ------
+        InputError
+            On NaN/inf samples, fewer than 4 samples or a bad rate.
+        """
+        from scipy.interpolate import CubicSpline
+
+        x = np.asarray(samples, dtype=float).ravel()
+        if not (math.isfinite(sample_rate_hz) and sample_rate_hz > 0):
+            raise InputError(f"drive sample_rate_hz {sample_rate_hz!r}; expected a finite rate > 0 Hz")
+        if x.size < 4:
+            raise InputError(f"drive signal of {x.size} samples; expected at least 4")
+        bad = ~np.isfinite(x)
+        if bad.any():
+            i = int(np.flatnonzero(bad)[0])
+            raise InputError(
+                f"drive signal has non-finite samples, the first at index {i} (t = {i / sample_rate_hz:.4f} s)"
+            )
+        t = np.arange(x.size) / sample_rate_hz
+        spline = CubicSpline(t, x, bc_type="natural")
+        self.sample_rate_hz = float(sample_rate_hz)
+        self.samples = x
+        self._coef = np.ascontiguousarray(spline.c)
+
+    @property
+    def duration_s(self) -> float:
+        """Time of the last sample (s)."""
+        return (self.samples.size - 1) / self.sample_rate_hz
+
+    def _locate(self, t: float):
+        k = int(t * self.sample_rate_hz)
+        n = self._coef.shape[1]
+        if k < 0:
+            return None, 0.0
+        if k >= n:
+            return None, 1.0
+        return k, t - k / self.sample_rate_hz
+
+    def value(self, t: float) -> float:
+        """Displacement at time ``t`` (m)."""
+        k, dt = self._locate(t)
+        if k is None:
+            return float(self.samples[0] if dt == 0.0 else self.samples[-1])
+        c = self._coef
+        return ((c[0, k] * dt + c[1, k]) * dt + c[2, k]) * dt + c[3, k]
+
+    def velocity(self, t: float) -> float:
+        """Velocity at time ``t`` (m/s)."""
+        k, dt = self._locate(t)
+        if k is None:
+            return 0.0
+        c = self._coef
+        return (3.0 * c[0, k] * dt + 2.0 * c[1, k]) * dt + c[2, k]
+
+    def evaluate(self, t: np.ndarray, derivative: int = 0) -> np.ndarray:
+        """Vectorised displacement (0), velocity (1) or acceleration (2) at times ``t``."""
+        t = np.asarray(t, dtype=float)
+        n = self._coef.shape[1]
+        k = np.clip((t * self.sample_rate_hz).astype(int), 0, n - 1)
+        dt = np.clip(t - k / self.sample_rate_hz, 0.0, 1.0 / self.sample_rate_hz)
+        c0, c1, c2, c3 = (self._coef[i, k] for i in range(4))
+        if derivative == 0:
+            return ((c0 * dt + c1) * dt + c2) * dt + c3
+        if derivative == 1:
+            return (3.0 * c0 * dt + 2.0 * c1) * dt + c2
+        if derivative == 2:
+            return 6.0 * c0 * dt + 2.0 * c1
+        raise InputError(f"derivative {derivative!r}; expected 0, 1 or 2")
+
+    # Exudyn user functions (ObjectJointGeneric offsetUserFunction / offsetUserFunction_t)
+    def offset_user_function(self, mbs, t, item_number, parameters):  # noqa: D102
+        out = [0.0] * 6
+        out[self.axis] = self.value(t)
+        return out
+
+    def offset_user_function_t(self, mbs, t, item_number, parameters):  # noqa: D102
+        out = [0.0] * 6
+        out[self.axis] = self.velocity(t)
+        return out
+
+
+@dataclass
+class RigHandles:
+    """Exudyn item numbers of the rig.
+
+    Attributes
+    ----------
+    bodies : dict name -> rigid-body object number
+        'cylinder', 'piston', 'linkage', 'strut_left', 'strut_right', 'front_strut'.
+    nodes : dict name -> rigid-body node number
+    joints : dict name -> joint object number
+    ground : int
+        The ground object.
+    drive : Drive
+    """
+
+    bodies: dict = field(default_factory=dict)
+    nodes: dict = field(default_factory=dict)
+    joints: dict = field(default_factory=dict)
+    ground: int = -1
+    drive: Drive = field(default_factory=Drive)
+
+
+def ground_marker(mbs, ground: int, position_m) -> int:
+    """A ``MarkerBodyRigid`` on the ground object at the global ``position_m``."""
+    import exudyn.itemInterface as eii
+
+    return mbs.AddMarker(eii.MarkerBodyRigid(bodyNumber=ground, localPosition=[float(v) for v in position_m]))
+
+
+def generic_joint(mbs, marker0: int, marker1: int, axes, name: str, **kwargs) -> int:
+    """``ObjectJointGeneric`` constraining ``axes`` (6 flags: x, y, z, rx, ry, rz, global axes)."""
+    import exudyn.itemInterface as eii
+
+    return mbs.AddObject(
+        eii.ObjectJointGeneric(
+            name=name,
+            markerNumbers=[marker0, marker1],
+            constrainedAxes=[int(a) for a in axes],
+            visualization=eii.VObjectJointGeneric(show=False),
+            **kwargs,
+        )
+    )
+
+
+def _rigid_body(mbs, name: str, position, mass: float, side_lengths, color) -> tuple[int, int]:
+    """A cuboid-inertia rigid body of ``mass`` centred at ``position``; returns (object, node)."""
+    import exudyn.utilities as eu
+
+    sides = np.asarray(side_lengths, dtype=float)
+    density = mass / float(np.prod(sides))
+    obj = mbs.CreateRigidBody(
+        name=name,
+        referencePosition=[float(v) for v in position],
+        inertia=eu.InertiaCuboid(density, sides.tolist()),
+        gravity=[0.0, 0.0, 0.0],
+        color=list(color),
+    )
+    return int(obj), int(mbs.GetObject(obj)["nodeNumber"])
+
+
+def _body_marker(mbs, body: int, body_position, global_point) -> int:
+    import exudyn.itemInterface as eii
+
+    local = np.asarray(global_point, dtype=float) - np.asarray(body_position, dtype=float)
+    return mbs.AddMarker(eii.MarkerBodyRigid(bodyNumber=body, localPosition=local.tolist()))
+
+
+def add_rig(mbs, frame_markers: dict, frame_positions: dict, foundation, params: RigParameters = RigParameters(),
+            ground: int | None = None) -> RigHandles:
+    """Add the rig's rigid parts and joints, connecting them to the frame and the foundation.
+
+    Parameters
+    ----------
+    mbs : exudyn.MainSystem
+    frame_markers : dict
+        Interface name -> ``MarkerSuperElementRigid`` of the body carrying it, for
+        'front_left_drive', 'front_right_drive', 'front_strut', 'rear_left', 'rear_right'.
+    frame_positions : dict
+        Interface name -> global patch centre (m), same keys.
+    foundation : FlexibleBodyHandle-like
+        The rear foundation (``interface_markers``, ``interface_positions_m`` with
+        'ground_left', 'ground_right', 'frame_left', 'frame_right').
+    params : RigParameters
+    ground : int, optional
+        An existing ground object (created if None).
+
+    Returns
+    -------
+    RigHandles
+    """
+    import exudyn.itemInterface as eii
+
+    needed = ("front_left_drive", "front_right_drive", "front_strut", "rear_left", "rear_right")
+    missing = [n for n in needed if n not in frame_markers]
+    if missing:
+        raise InputError(f"rig: the frame has no interface {missing}; it needs {list(needed)}")
+    h = RigHandles()
+    h.ground = mbs.AddObject(eii.ObjectGround(name="ground")) if ground is None else ground
+    p = params
+    left = np.asarray(frame_positions["front_left_drive"], dtype=float)
+    right = np.asarray(frame_positions["front_right_drive"], dtype=float)
+    x_d = 0.5 * (left[0] + right[0])
+    z_l = p.linkage_z_m
+    pin = np.array([x_d, 0.0, z_l])
+    pivot = np.array([p.linkage_pivot_x_m, 0.0, z_l])
+    base = np.array([x_d, 0.0, p.cylinder_base_z_m])
+    cyl_top = base + [0.0, 0.0, p.cylinder_length_m]
+
+    # cylinder: revolute about y at its base
+    c_pos = 0.5 * (base + cyl_top)
+    h.bodies["cylinder"], h.nodes["cylinder"] = _rigid_body(
+        mbs, "cylinder", c_pos, p.cylinder_mass_kg, (0.12, 0.12, p.cylinder_length_m), (0.4, 0.4, 0.4, 1))
+    h.joints["cylinder_ground"] = generic_joint(
+        mbs, ground_marker(mbs, h.ground, base), _body_marker(mbs, h.bodies["cylinder"], c_pos, base),
+        (1, 1, 1, 1, 0, 1), "cylinder_ground")
+    # piston: all six coordinates to the cylinder, z prescribed (prismatic + actuator)
+    rod = pin[2] - cyl_top[2]
+    p_pos = 0.5 * (cyl_top + pin)
+    h.bodies["piston"], h.nodes["piston"] = _rigid_body(
+        mbs, "piston", p_pos, p.piston_mass_kg, (0.08, 0.08, rod), (0.5, 0.5, 0.1, 1))
+    drive = h.drive
+    h.joints["drive"] = generic_joint(
+        mbs, _body_marker(mbs, h.bodies["cylinder"], c_pos, cyl_top),
+        _body_marker(mbs, h.bodies["piston"], p_pos, cyl_top), (1, 1, 1, 1, 1, 1), "drive",
+        offsetUserFunction=drive.offset_user_function, offsetUserFunction_t=drive.offset_user_function_t)
+    drive.joint = h.joints["drive"]
+    # linkage: revolute about y to ground, pinned (x, z) to the piston
+    y_span = abs(right[1] - left[1])
+    l_pos = 0.5 * (pivot + pin)
+    h.bodies["linkage"], h.nodes["linkage"] = _rigid_body(
+        mbs, "linkage", l_pos, p.linkage_mass_kg, (abs(x_d - pivot[0]), y_span, 0.10), (0.2, 0.6, 0.2, 1))
+    h.joints["linkage_ground"] = generic_joint(
+        mbs, ground_marker(mbs, h.ground, pivot), _body_marker(mbs, h.bodies["linkage"], l_pos, pivot),
+        (1, 1, 1, 1, 0, 1), "linkage_ground")
+    h.joints["piston_linkage"] = generic_joint(
+        mbs, _body_marker(mbs, h.bodies["piston"], p_pos, pin), _body_marker(mbs, h.bodies["linkage"], l_pos, pin),
+        (1, 0, 1, 0, 0, 0), "piston_linkage")
+    # struts: universal joint at the linkage (twist about the strut axis locked), spherical at the pad
+    for side, top in (("left", left), ("right", right)):
+        foot = np.array([top[0], top[1], z_l])
+        s_pos = 0.5 * (foot + top)
+        name = f"strut_{side}"
+        h.bodies[name], h.nodes[name] = _rigid_body(
+            mbs, name, s_pos, p.strut_mass_kg, (0.05, 0.05, float(top[2] - foot[2])), (0.1, 0.7, 0.8, 1))
+        h.joints[f"{name}_linkage"] = generic_joint(
+            mbs, _body_marker(mbs, h.bodies["linkage"], l_pos, foot), _body_marker(mbs, h.bodies[name], s_pos, foot),
+            (1, 1, 1, 0, 0, 1), f"{name}_linkage")
+        h.joints[f"{name}_frame"] = mbs.AddObject(eii.ObjectJointSpherical(
+            name=f"{name}_frame",
+            markerNumbers=[_body_marker(mbs, h.bodies[name], s_pos, top), frame_markers[f"front_{side}_drive"]],
+            visualization=eii.VObjectJointSpherical(show=False)))
+    # front attachment strut along y: universal joint at ground, spherical at the frame
+    fs = np.asarray(frame_positions["front_strut"], dtype=float)
+    g = fs - [0.0, p.front_strut_length_m, 0.0]
+    f_pos = 0.5 * (g + fs)
+    h.bodies["front_strut"], h.nodes["front_strut"] = _rigid_body(
+        mbs, "front_strut", f_pos, p.front_strut_mass_kg, (0.04, p.front_strut_length_m, 0.04), (0.1, 0.2, 0.9, 1))
+    h.joints["front_strut_ground"] = generic_joint(
+        mbs, ground_marker(mbs, h.ground, g), _body_marker(mbs, h.bodies["front_strut"], f_pos, g),
+        (1, 1, 1, 0, 1, 0), "front_strut_ground")  # universal joint: twist about y locked
+    h.joints["front_strut_frame"] = mbs.AddObject(eii.ObjectJointSpherical(
+        name="front_strut_frame",
+        markerNumbers=[_body_marker(mbs, h.bodies["front_strut"], f_pos, fs), frame_markers["front_strut"]],
+        visualization=eii.VObjectJointSpherical(show=False)))
+    # rear foundation: fixed to ground, spherical to the frame's rear attachments
+    for side in ("left", "right"):
+        gname = f"ground_{side}"
+        h.joints[f"foundation_{gname}"] = generic_joint(
+            mbs, ground_marker(mbs, h.ground, foundation.interface_positions_m[gname]),
+            foundation.interface_markers[gname], (1, 1, 1, 1, 1, 1), f"foundation_{gname}")
+        h.joints[f"foundation_rear_{side}"] = mbs.AddObject(eii.ObjectJointSpherical(
+            name=f"foundation_rear_{side}",
+            markerNumbers=[foundation.interface_markers[f"frame_{side}"], frame_markers[f"rear_{side}"]],
+            visualization=eii.VObjectJointSpherical(show=False)))
+    return h

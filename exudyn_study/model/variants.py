@@ -1,0 +1,465 @@
+"""Model variants 1-3 of the thesis on the rig, with the 42 sensors: :func:`build_model`.
+
+- **Model 1**: the chassis assembly as one flexible body, simplified bolted joints
+  (thesis Section 4.3);
+- **Model 2**: one flexible body, detailed bolted joints (Section 4.4);
+- **Model 3**: frame, two fuel tanks and two mudguard brackets as five flexible bodies
+  joined at their interface patches by fixed joints (Section 4.5), or by 6-DOF
+  spring-damper bushings (:class:`BushingParameters`; the force element the thesis
+  recommended as future work).
+
+Every variant sits on the same rig (:mod:`exudyn_study.model.rig`) with the rear
+foundation as a flexible body. Damping is a function of each body's mode frequencies
+(:mod:`exudyn_study.damping`), evaluated per body.
+
+The builder returns a :class:`Model`: the Exudyn ``SystemContainer``/``MainSystem``
+and named handles (bodies, interfaces, joints, rig parts, sensors, drive). Add your own
+Exudyn items to ``model.mbs``, then call :meth:`Model.assemble`.
+
+Body formulation
+----------------
+``formulation='linear'`` (default) adds each flexible body as a linear CMS body
+(:mod:`exudyn_study.model.linear_body`: fixed floating frame, rigid-body modes in the
+basis), the linearisation of the FFRF body for small motions and several times faster to
+integrate; ``'ffrf'`` uses the full floating-frame body of
+:func:`exudyn_study.flexbody.add_flexible_body`. Both have the same linearised system.
+"""
+
+from __future__ import annotations
+
+import logging
+import math
+from collections.abc import Callable, Mapping, Sequence
+from dataclasses import dataclass, field
+
+import numpy as np
+
+from ..damping import PerBody, damping_function
+from ..errors import InputError
+from ..sensors import SENSORS, Sensor
+from ..sensors import sensor as lookup_sensor
+from .rig import Drive, RigHandles, RigParameters, add_rig, generic_joint
+
+__all__ = [
+    "VARIANTS",
+    "FORMULATIONS",
+    "BushingParameters",
+    "SensorAttachment",
+    "InterfaceHandle",
+    "Model",
+    "build_model",
+    "build_model_from_bodies",
+    "model_bodies",
+]
+
+log = logging.getLogger(__name__)
+
+VARIANTS = (1, 2, 3)
+FORMULATIONS = ("linear", "ffrf")
+MODEL3_COMPONENTS = ("frame", "tank_left", "tank_right", "bracket_left", "bracket_right")
+#: Damping of the rear foundation when the damping choice names no ratio for it.
+FOUNDATION_DAMPING_RATIO = 0.02
+
+_DIRECTION = {"X": np.array([1.0, 0.0, 0.0]), "Y": np.array([0.0, 1.0, 0.0]), "Z": np.array([0.0, 0.0, 1.0])}
+
+
+@dataclass(frozen=True)
+class BushingParameters:
+    """A 6-DOF linear spring-damper joining two interface patches (Model 3).
+
+    Parameters
+    ----------
+    stiffness : array_like, shape (6,) or (6, 6)
+        Translational (N/m) then rotational (N m/rad) stiffness in the interface frame
+        (global axes). A 6-vector is the diagonal.
+    damping : array_like, shape (6,) or (6, 6), optional
+        Viscous damping (N s/m, N m s/rad); default ``damping_time_s * stiffness``.
+    damping_time_s : float
+        Stiffness-proportional damping factor used when ``damping`` is None
+        (1e-4 s gives ~1.6 % at 50 Hz).
+
+    Notes
+    -----
+    The defaults (2e7 N/m, 2e5 N m/rad) are of the order of a small bolted bracket joint
+    with a rubber-free contact; they are a starting point for calibration, not measured.
+    """
+
+    stiffness: Sequence[float] | np.ndarray = (2e7, 2e7, 2e7, 2e5, 2e5, 2e5)
+    damping: Sequence[float] | np.ndarray | None = None
+    damping_time_s: float = 1e-4
+
+    def matrices(self) -> tuple[np.ndarray, np.ndarray]:
+        """(K, D), both (6, 6).
+
+        Raises
+        ------
+        InputError
+            On a wrong shape, a non-finite or negative diagonal entry.
+        """
+        def as_matrix(v, what):
+            a = np.asarray(v, dtype=float)
+            if a.shape == (6,):
+                a = np.diag(a)
+            if a.shape != (6, 6) or not np.all(np.isfinite(a)) or np.any(np.diag(a) < 0):
+                raise InputError(f"bushing {what}: expected 6 values >= 0 or a finite 6x6 matrix, got {v!r}")
+            return a
+
+        k = as_matrix(self.stiffness, "stiffness")
+        if self.damping is None:
+            if not (math.isfinite(self.damping_time_s) and self.damping_time_s >= 0):
+                raise InputError(f"bushing damping_time_s {self.damping_time_s!r}; expected >= 0 s")
+            return k, self.damping_time_s * k
+        return k, as_matrix(self.damping, "damping")
+
+
+@dataclass
+class SensorAttachment:
+    """Where a rig accelerometer sits in the model.
+
+    Attributes
+    ----------
+    sensor : Sensor
+        Appendix-A data (name, direction, position, component).
+    body : str
+        Name of the flexible body carrying it.
+    node : int
+        Mesh node (nearest surface node of the sensor's component).
+    distance_m : float
+        Distance from the table position to that node.
+    direction : ndarray, shape (3,)
+        Unit measuring direction (global).
+    exudyn_sensor : int or None
+        ``SensorSuperElement`` (acceleration, 3 components) of that node.
+    """
+
+    sensor: Sensor
+    body: str
+    node: int
+    distance_m: float
+    direction: np.ndarray
+    exudyn_sensor: int | None = None
+
+    @property
+    def component_index(self) -> int:
+        """0, 1, 2 for X, Y, Z."""
+        return "XYZ".index(self.sensor.direction)
+
+
+@dataclass
+class InterfaceHandle:
+    """An interface patch of a flexible body: its rigid marker and global centre (m)."""
+
+    body: str
+    name: str
+    marker: int
+    position_m: np.ndarray
+
+
+@dataclass
+class Model:
+    """A model variant on the rig: the Exudyn system and named handles.
+
+    Attributes
+    ----------
+    variant : int
+        1, 2 or 3.
+    system_container, mbs
+        Exudyn ``SystemContainer`` and ``MainSystem``.
+    bodies : dict name -> FlexibleBodyHandle
+        'chassis' (Models 1, 2) or 'frame', 'tank_left', ... (Model 3), and
+        'rear_foundation'.
+    body_components : dict body name -> component name for sensor/energy bookkeeping
+        (None: the body carries several components, see its ``region_components``).
+    interfaces : dict 'body.interface' -> InterfaceHandle
+    joints : dict name -> Exudyn object number (rig joints and Model-3 connections)
+    rig : RigHandles
+    sensors : dict sensor name -> SensorAttachment
+    drive : Drive
+        Prescribed piston displacement (set a signal before simulating).
+    formulation : {'linear', 'ffrf'}
+    damping_ratios : dict body name -> ndarray of per-mode ratios
+    metadata : dict
+        Model, damping and mesh description (goes into recordings and modes files).
+    body_data : dict body name -> FlexibleBodyData
+    """
+
+    variant: int
+    system_container: object
+    mbs: object
+    bodies: dict
+    body_components: dict
+    interfaces: dict
+    joints: dict
+    rig: RigHandles
+    sensors: dict
+    drive: Drive
+    formulation: str
+    damping_ratios: dict
+    metadata: dict = field(default_factory=dict)
+    body_data: dict = field(default_factory=dict, repr=False)
+    assembled: bool = False
+
+    def assemble(self) -> None:
+        """``mbs.Assemble()`` (call after adding your own items)."""
+        self.mbs.Assemble()
+        self.assembled = True
+
+    def sensor_names(self) -> tuple[str, ...]:
+        """Sensor names in Table 8 order."""
+        return tuple(self.sensors)
+
+
+def _damping_for(damping, body: str, component: str | None) -> Callable[[np.ndarray], np.ndarray]:
+    """The damping function of ``body`` under the damping choice ``damping``."""
+    if isinstance(damping, str):
+        return damping_function(damping)
+    if isinstance(damping, PerBody):
+        for key in (body, component, "frame" if body == "chassis" else None):
+            if key is not None and key in damping.ratios:
+                return damping.for_body(key)
+        if damping.default is not None:
+            return damping.for_body(body)
+        if body == "rear_foundation":
+            return damping_function("constant-2") if FOUNDATION_DAMPING_RATIO == 0.02 else None
+        return damping.for_body(body)  # raises, naming the body
+    if isinstance(damping, Mapping):
+        if body in damping:
+            return _damping_for(damping[body], body, component)
+        if body == "rear_foundation":
+            return lambda f: np.full(np.shape(f), FOUNDATION_DAMPING_RATIO)
+        raise InputError(f"damping mapping has no entry for body {body!r}; it has {sorted(damping)}")
+    if callable(damping):
+        return damping
+    raise InputError(
+        f"damping {damping!r}: expected a name ('adams-default', 'step', 'constant-1', 'constant-2'), "
+        "a function of mode frequency, a PerBody table or a mapping body -> damping"
+    )
+
+
+def _damping_label(damping) -> str:
+    if isinstance(damping, str):
+        return damping
+    if isinstance(damping, PerBody):
+        return "per-body " + ", ".join(f"{k}={v:g}" for k, v in damping.ratios.items())
+    return getattr(damping, "__name__", type(damping).__name__)
+
+
+def model_bodies(variant: int, mesh_size="coarse", cache_dir=None, progress: Callable | None = None) -> dict:
+    """Build or load the flexible bodies of ``variant``: name -> FlexibleBodyData.
+
+    Raises
+    ------
+    InputError
+        For an unknown variant.
+    """
+    from ..bodies import BodySpec, flexible_body
+
+    _check_variant(variant)
+    if variant in (1, 2):
+        specs = {"chassis": BodySpec(joint_model="simple" if variant == 1 else "detailed", mesh_size=mesh_size)}
+    else:
+        specs = {c: BodySpec(component=c, mesh_size=mesh_size) for c in MODEL3_COMPONENTS}
+    specs["rear_foundation"] = BodySpec(kind="rear_foundation", mesh_size=mesh_size)
+    out = {}
+    for name, spec in specs.items():
+        if progress is not None:
+            progress(f"flexible body {spec.name}")
+        out[name] = flexible_body(spec, cache_dir=cache_dir)
+    return out
+
+
+def _check_variant(variant) -> None:
+    if variant not in VARIANTS:
+        raise InputError(f"model {variant!r} is unknown; expected one of {list(VARIANTS)}")
+
+
+def build_model(
+    variant: int = 1,
+    damping="adams-default",
+    mesh_size="coarse",
+    bushing: BushingParameters | None = None,
+    cache_dir=None,
+    formulation: str = "linear",
+    rig: RigParameters = RigParameters(),
+    sensors: Sequence[str] | None = None,
+    progress: Callable | None = None,
+) -> Model:
+    """Build a thesis model variant on the rig.
+
+    Parameters
+    ----------
+    variant : {1, 2, 3}
+    damping : str, callable, PerBody or mapping
+        A named damping function (:data:`exudyn_study.damping.DAMPING_FUNCTIONS`), a
+        function of mode frequency (Hz) returning ratios, a
+        :class:`~exudyn_study.damping.PerBody` table (Model 3: thesis Table 6), or a
+        mapping body name -> any of these. Evaluated at each body's mode frequencies.
+    mesh_size : {'coarse', 'production'} or float
+    bushing : BushingParameters, optional
+        Model 3 only: join the components with 6-DOF spring-dampers instead of fixed joints.
+    cache_dir : path, optional
+        Flexible-body cache (default ``$EXUDYN_STUDY_CACHE`` or ``~/.cache/exudyn_study``).
+    formulation : {'linear', 'ffrf'}
+        Flexible-body formulation (see the module docstring).
+    rig : RigParameters
+    sensors : sequence of str, optional
+        Sensor names to attach (default: all 42 of Appendix A).
+    progress : callable, optional
+        Called with a short text before each expensive step.
+
+    Returns
+    -------
+    Model
+        Not yet assembled: add your own items, then ``model.assemble()``.
+
+    Raises
+    ------
+    InputError
+        Unknown variant, damping, formulation or sensor name; a bushing on Model 1 or 2.
+    """
+    _check_variant(variant)
+    if bushing is not None and variant != 3:
+        raise InputError(f"bushing given for model {variant}; bushings join the separate bodies of model 3 only")
+    data = model_bodies(variant, mesh_size, cache_dir, progress)
+    model = build_model_from_bodies(
+        data, variant=variant, damping=damping, bushing=bushing, formulation=formulation, rig=rig,
+        sensors=sensors)
+    model.metadata["mesh"] = str(mesh_size)
+    return model
+
+
+def build_model_from_bodies(
+    bodies: Mapping,
+    variant: int = 1,
+    damping="adams-default",
+    bushing: BushingParameters | None = None,
+    formulation: str = "linear",
+    rig: RigParameters = RigParameters(),
+    sensors: Sequence[str] | None = None,
+) -> Model:
+    """Assemble a rig model from given flexible bodies (the workhorse of :func:`build_model`).
+
+    Parameters
+    ----------
+    bodies : mapping name -> FlexibleBodyData
+        'rear_foundation' and either 'chassis' (one body with the five rig interfaces)
+        or the Model-3 components (the 'frame' with the rig interfaces and the component
+        interfaces; each component with its matching interfaces).
+    variant, damping, bushing, formulation, rig, sensors
+        As :func:`build_model`.
+
+    Returns
+    -------
+    Model
+    """
+    import exudyn as exu
+    import exudyn.itemInterface as eii
+
+    from ..flexbody import add_flexible_body
+    from .linear_body import add_linear_cms_body, weighted_center
+
+    _check_variant(variant)
+    if formulation not in FORMULATIONS:
+        raise InputError(f"formulation {formulation!r}; expected one of {list(FORMULATIONS)}")
+    if "rear_foundation" not in bodies:
+        raise InputError(f"bodies {sorted(bodies)}: the rear foundation ('rear_foundation') is missing")
+    frame_name = "chassis" if "chassis" in bodies else "frame"
+    if frame_name not in bodies:
+        raise InputError(f"bodies {sorted(bodies)}: expected 'chassis' or 'frame'")
+    sensor_list = SENSORS if sensors is None else tuple(lookup_sensor(s) for s in sensors)
+
+    sc = exu.SystemContainer()
+    mbs = sc.AddSystem()
+    ground = mbs.AddObject(eii.ObjectGround(name="ground"))
+    handles, ratios, components = {}, {}, {}
+    colors = {"chassis": (0.2, 0.5, 0.9, 1), "frame": (0.2, 0.5, 0.9, 1), "rear_foundation": (0.6, 0.6, 0.6, 1)}
+    for name, fb in bodies.items():
+        comp = None if name == "chassis" else ("rear_foundation" if name == "rear_foundation" else name)
+        components[name] = comp
+        zeta = np.asarray(_damping_for(damping, name, comp)(fb.body.frequencies_hz), dtype=float)
+        ratios[name] = zeta
+        color = colors.get(name, (0.9, 0.5, 0.2, 1))
+        if formulation == "linear":
+            handles[name] = add_linear_cms_body(mbs, fb.body, fb.ffrf, zeta, ground, name=name, color=color)
+        else:
+            handles[name] = add_flexible_body(mbs, fb.body, fb.ffrf, zeta, name=name, color=color)
+            handles[name].interface_positions_m = {
+                n: weighted_center(fb.body, n) for n in fb.body.interface_names}
+    interfaces = {
+        f"{b}.{n}": InterfaceHandle(b, n, h.interface_markers[n], np.asarray(h.interface_positions_m[n]))
+        for b, h in handles.items() for n in h.interface_markers
+    }
+    frame = handles[frame_name]
+    rig_handles = add_rig(mbs, frame.interface_markers, frame.interface_positions_m, handles["rear_foundation"],
+                          rig, ground=ground)
+    joints = dict(rig_handles.joints)
+
+    if frame_name == "frame":  # Model 3: join the components to the frame
+        k_mat, d_mat = bushing.matrices() if bushing is not None else (None, None)
+        for comp in (c for c in MODEL3_COMPONENTS[1:] if c in handles):
+            for itf in handles[comp].interface_markers:
+                if itf not in frame.interface_markers:
+                    raise InputError(f"component {comp!r} interface {itf!r} has no counterpart on the frame")
+                m0, m1 = frame.interface_markers[itf], handles[comp].interface_markers[itf]
+                if bushing is None:
+                    joints[f"{comp}.{itf}"] = generic_joint(mbs, m0, m1, (1, 1, 1, 1, 1, 1), f"{comp}.{itf}")
+                else:
+                    joints[f"{comp}.{itf}"] = mbs.AddObject(eii.ObjectConnectorRigidBodySpringDamper(
+                        name=f"{comp}.{itf}", markerNumbers=[m0, m1], stiffness=k_mat.tolist(),
+                        damping=d_mat.tolist(), visualization=eii.VObjectConnectorRigidBodySpringDamper(show=False)))
+
+    attachments = _attach_sensors(mbs, handles, components, sensor_list)
+    meta = {
+        "model": f"model{variant}",
+        "variant": variant,
+        "damping": _damping_label(damping),
+        "formulation": formulation,
+        "connection": ("bushing" if bushing is not None else "fixed") if variant == 3 else "single body",
+    }
+    return Model(
+        variant=variant, system_container=sc, mbs=mbs, bodies=handles, body_components=components,
+        interfaces=interfaces, joints=joints, rig=rig_handles, sensors=attachments, drive=rig_handles.drive,
+        formulation=formulation, damping_ratios=ratios, metadata=meta, body_data=dict(bodies))
+
+
+def _surface_nodes(body) -> np.ndarray:
+    tris = np.asarray(body.surface_triangles)
+    return np.unique(tris.ravel())
+
+
+def _attach_sensors(mbs, handles: dict, components: dict, sensor_list) -> dict:
+    """Attach each sensor to the nearest surface node of its component's body."""
+    import exudyn as exu
+    import exudyn.itemInterface as eii
+
+    out = {}
+    node_sensor: dict[tuple[str, int], int] = {}
+    for s in sensor_list:
+        body_name = None
+        for b, comp in components.items():
+            if comp == s.component:
+                body_name = b
+        if body_name is None and "chassis" in handles:
+            body_name = "chassis"
+        if body_name is None:
+            raise InputError(f"sensor {s.name!r} sits on {s.component!r}, which no body of this model carries")
+        body = handles[body_name].body
+        if components[body_name] is None:
+            candidates = np.intersect1d(body.component_nodes(s.component), _surface_nodes(body))
+        else:
+            candidates = _surface_nodes(body)
+        if candidates.size == 0:
+            raise InputError(f"sensor {s.name!r}: body {body_name!r} has no surface node on {s.component!r}")
+        d = np.linalg.norm(body.node_positions_m[candidates] - np.asarray(s.position_m), axis=1)
+        i = int(np.argmin(d))
+        node = int(candidates[i])
+        key = (body_name, node)
+        if key not in node_sensor:
+            node_sensor[key] = mbs.AddSensor(eii.SensorSuperElement(
+                name=f"acc:{s.name}", bodyNumber=handles[body_name].object_number, meshNodeNumber=node,
+                outputVariableType=exu.OutputVariableType.Acceleration, storeInternal=True, writeToFile=False))
+        out[s.name] = SensorAttachment(s, body_name, node, float(d[i]), _DIRECTION[s.direction].copy(),
+                                       node_sensor[key])
+        if d[i] > 0.05:
+            log.warning("sensor %s: nearest surface node of %s is %.0f mm away", s.name, s.component, 1e3 * d[i])
+    return out
