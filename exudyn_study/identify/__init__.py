@@ -17,20 +17,28 @@ Modules: :mod:`.frf` (H1/H2/Hv, coherence), :mod:`.polymax` (stabilisation),
 synthesis, pole refinement, leakage model), :mod:`.mac` (MAC, MPC),
 :mod:`.resolution` (lines per half-power bandwidth), :mod:`.model` (ModalModel and
 its JSON), :mod:`.pipeline` (end to end), :mod:`.plots`, :mod:`.synthetic`.
+
+``lsfd``, ``polymax`` and ``mac`` are at once modules and their main functions:
+the package exports the modules, and calling one calls the function of the same
+name (``identify.mac(phi_a, phi_b)``), while ``identify.lsfd.Leakage`` and
+``import exudyn_study.identify.lsfd`` reach the module.
 """
 
-from .frf import FRF, estimate_frf
-from .lsfd import Leakage, LSFDResult, fit_modal_model, lsfd, refine_poles, synthesise
-from .mac import automac, mac, mcf, mpc
+# modules that are also their main function (callable): lsfd(...), polymax(...), mac(...)
+from . import lsfd, mac, polymax
+from .frf import FRF, estimate_frf, frf_weights
+from .lsfd import Leakage, LSFDResult, fit_modal_model, refine_poles, synthesise
+from .mac import automac, mcf, mpc
 from .model import ModalModel, Mode, read_modes_json, write_modes_json
 from .pipeline import IdentificationResult, identify, identify_frf, identify_recording
-from .polymax import Poles, modal_to_pole, pole_to_modal, polymax
+from .polymax import Poles, modal_to_pole, pole_to_modal
 from .resolution import lines_in_half_power, resolution_warnings, suggest_resolution
 from .selection import Selection, select_modes
 
 __all__ = [
     "FRF",
     "estimate_frf",
+    "frf_weights",
     "Poles",
     "polymax",
     "pole_to_modal",

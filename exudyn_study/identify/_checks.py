@@ -63,3 +63,28 @@ def band_mask(freq_hz: np.ndarray, band_hz) -> np.ndarray:
             "expected at least 4; widen the band or refine the resolution"
         )
     return sel
+
+
+def callable_module(module_name: str, func) -> None:
+    """Make the module ``module_name`` callable as its main function ``func``.
+
+    ``lsfd``, ``polymax`` and ``mac`` are both modules of this package and its main
+    functions. The package re-exports the *modules*; calling one calls the function,
+    so ``from exudyn_study.identify import lsfd; lsfd(H, f, poles)`` works, and so
+    do ``exudyn_study.identify.lsfd.Leakage`` and ``import exudyn_study.identify.lsfd``
+    (a re-exported function of the same name would shadow the module attribute).
+    Uses module ``__class__`` assignment (Python >= 3.5).
+    """
+    import sys
+    import types
+
+    class _CallableModule(types.ModuleType):
+        __call__ = staticmethod(func)
+
+        @property
+        def __signature__(self):
+            import inspect
+
+            return inspect.signature(func)
+
+    sys.modules[module_name].__class__ = _CallableModule

@@ -44,7 +44,8 @@ import scipy.signal
 
 from ..errors import InputError
 
-__all__ = ["FRF", "ESTIMATORS", "estimate_frf", "segment_length", "n_averages"]
+__all__ = ["FRF", "ESTIMATORS", "estimate_frf", "segment_length", "n_averages",
+           "frf_weights"]
 
 ESTIMATORS = ("H1", "H2", "Hv")
 
@@ -297,6 +298,41 @@ def estimate_frf(
         sample_rate_hz=float(sample_rate_hz),
         window=window,
     )
+
+
+def frf_weights(frf: FRF, *, max_coherence: float = 0.9999) -> np.ndarray:
+    r"""Inverse standard error of every FRF line, for weighted (ML-type) fitting.
+
+    The normalised random error of an FRF estimate from :math:`n_d` averages is
+    :math:`\varepsilon = \sqrt{1-\gamma^2} / (|\gamma| \sqrt{2 n_d})` (Bendat & Piersol
+    2010, eq. 9.90; the same to first order for H1, H2 and Hv), so the standard error
+    of line l is :math:`\sigma_l = \varepsilon_l |H_l|` and the weights are
+    :math:`1/\sigma_l`. Near a lightly damped resonance the Welch coherence drops
+    (window leakage: the response in a segment also depends on the excitation
+    before it), so those lines, which scatter most, count less; off resonance the
+    measurement noise lowers the coherence. Weighting the fit by them reduces the
+    scatter of the identified damping (roughly halved for the Table-1 system at
+    80 s) without changing its expectation.
+
+    Parameters
+    ----------
+    frf : FRF
+        Welch estimate with its coherence.
+    max_coherence : float, optional
+        Coherence is clipped to this value (default 0.9999), which bounds the
+        weight of a line by 1 / (0.01 |H|) relative to the others.
+
+    Returns
+    -------
+    ndarray, shape (n_out, n_in, n_freq)
+        Weights in 1 / (FRF unit); zero where the FRF is zero.
+    """
+    coh = np.clip(frf.coherence, 1e-6, max_coherence)
+    eps = np.sqrt((1.0 - coh) / (coh * 2.0 * max(frf.n_averages, 1)))
+    mag = np.abs(frf.H)
+    with np.errstate(invalid="ignore", divide="ignore"):
+        w = np.where(mag > 0, 1.0 / (eps * np.where(mag > 0, mag, 1.0)), 0.0)
+    return np.nan_to_num(w, posinf=0.0)
 
 
 def _hv_mimo(gff: np.ndarray, gxf: np.ndarray, gxx: np.ndarray) -> np.ndarray:

@@ -44,7 +44,7 @@ import scipy.linalg
 import scipy.optimize
 
 from ..errors import InputError
-from ._checks import as_frf, band_mask
+from ._checks import as_frf, band_mask, callable_module
 from .polymax import modal_to_pole, pole_to_modal
 
 __all__ = [
@@ -204,15 +204,33 @@ def _basis(poles: np.ndarray, freq_hz: np.ndarray, powers, leakage=None) -> np.n
     return np.concatenate(cols, axis=1)
 
 
-def _solve(a: np.ndarray, h2: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
-    """Real LS solution of ``a @ c = h2`` (complex a [nf, n_col], h2 [nf, n_rhs]).
+def _solve(a: np.ndarray, h2: np.ndarray, w: np.ndarray | None = None
+           ) -> tuple[np.ndarray, np.ndarray]:
+    """Real (weighted) LS solution of ``a @ c = h2``.
 
-    Normal equations of the column-scaled real problem, solved by Cholesky (the
-    columns are few and well separated; LAPACK's QR/SVD drivers are avoided
-    because their threading overhead dominates at these sizes).
+    ``a`` is complex ``[nf, n_col]``, ``h2`` complex ``[nf, n_rhs]``; ``w`` (optional,
+    real ``[nf, n_rhs]``) weights every line of every right-hand side, which then
+    has its own normal equations. Normal equations of the column-scaled real
+    problem, solved by Cholesky (the columns are few and well separated; LAPACK's
+    QR/SVD drivers are avoided because their threading overhead dominates at these
+    sizes). Returns ``c[n_col, n_rhs]`` and the unweighted fit ``a @ c``.
     """
     ar = np.vstack([a.real, a.imag])
     hr = np.vstack([h2.real, h2.imag])
+    if w is not None:
+        ww = np.vstack([w, w]).T  # [n_rhs, 2 nf]
+        aw = ww[:, :, None] * ar[None, :, :]  # [n_rhs, 2 nf, n_col]
+        norm = np.linalg.norm(aw, axis=1)  # [n_rhs, n_col]
+        norm[norm == 0] = 1.0
+        aw /= norm[:, None, :]
+        g = np.matmul(aw.transpose(0, 2, 1), aw)
+        b = np.matmul(aw.transpose(0, 2, 1), (ww * hr.T)[:, :, None])[..., 0]
+        try:
+            c = np.linalg.solve(g, b[..., None])[..., 0]
+        except np.linalg.LinAlgError:
+            c = np.stack([np.linalg.lstsq(g[r], b[r], rcond=None)[0] for r in range(g.shape[0])])
+        c = (c / norm).T
+        return c, a @ c
     norm = np.linalg.norm(ar, axis=0)
     norm[norm == 0] = 1.0
     an = ar / norm
@@ -222,6 +240,26 @@ def _solve(a: np.ndarray, h2: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
         c = np.linalg.lstsq(an, hr, rcond=None)[0]
     c = c / norm[:, None]
     return c, a @ c
+
+
+def _line_weights(weights, shape: tuple[int, int, int], sel: np.ndarray) -> np.ndarray | None:
+    """Return per-line weights ``[nf_band, n_out * n_in]``, or None for per-output ones.
+
+    ``weights`` has shape (n_out,) (None is returned: they do not change a
+    per-column LS solution) or (n_out, n_in, n_freq).
+    """
+    if weights is None:
+        return None
+    w = np.asarray(weights, dtype=float)
+    n_out, n_in, n_freq = shape
+    if w.shape == (n_out,):
+        return None
+    if w.shape != (n_out, n_in, n_freq) or not np.all(np.isfinite(w)) or np.any(w < 0):
+        raise InputError(
+            f"weights of shape {w.shape}: expected ({n_out},) or ({n_out}, {n_in}, {n_freq}) "
+            "finite non-negative values"
+        )
+    return w[:, :, sel].reshape(n_out * n_in, -1).T
 
 
 def _check_poles(poles) -> np.ndarray:
@@ -248,6 +286,7 @@ def lsfd(
     frf_form: str = "accelerance",
     residuals: bool = True,
     leakage: Leakage | None = None,
+    weights: np.ndarray | None = None,
 ) -> LSFDResult:
     """Fit residues and residual terms to FRFs for given poles (LSFD).
 
@@ -270,6 +309,9 @@ def lsfd(
         Welch settings of ``frf``: fit the leakage-aware pole basis (see
         :class:`Leakage`); ``synthesised`` then includes the window smoothing.
         Default None: plain pole terms.
+    weights : ndarray, shape (n_out, n_in, n_freq), optional
+        Weight of every line, e.g. the inverse standard error of the FRF estimate
+        (:func:`~exudyn_study.identify.frf.frf_weights`); default unweighted.
 
     Returns
     -------
@@ -295,7 +337,8 @@ def lsfd(
             f"{n_modes} modes and {len(powers)} residual terms need more than the {nf} "
             "lines of the band"
         )
-    c, syn = _solve(a, h.reshape(n_out * n_in, nf).T)
+    c, syn = _solve(a, h.reshape(n_out * n_in, nf).T,
+                    _line_weights(weights, frf.shape, sel))
     res = (c[:n_modes] + 1j * c[n_modes:2 * n_modes]).T.reshape(n_out, n_in, n_modes)
     lower = np.zeros((n_out, n_in))
     upper = np.zeros((n_out, n_in))
@@ -383,8 +426,11 @@ def refine_poles(
         See :func:`lsfd`.
     residuals : bool, optional
         Fit residual terms (default True).
-    weights : ndarray, shape (n_out,), optional
-        Weight per output; default 1 / rms(|H_o|).
+    weights : ndarray, shape (n_out,) or (n_out, n_in, n_freq), optional
+        Weight per output, or per line (e.g. the inverse standard error of the
+        FRF estimate, :func:`~exudyn_study.identify.frf.frf_weights`, which makes
+        the fit a maximum-likelihood one for Gaussian FRF errors); default
+        1 / rms(|H_o|) per output.
     leakage : Leakage, optional
         Welch settings of ``frf`` for the leakage-aware basis (see :class:`Leakage`).
     max_nfev : int, optional
@@ -404,21 +450,28 @@ def refine_poles(
     f = freq_hz[sel]
     h = frf[:, :, sel]
     n_out, n_in, nf = h.shape
-    if weights is None:
-        rms = np.sqrt(np.mean(np.abs(h) ** 2, axis=(1, 2)))
-        weights = np.where(rms > 0, 1.0 / np.where(rms > 0, rms, 1.0), 0.0)
-    hw = (h * np.asarray(weights)[:, None, None]).reshape(n_out * n_in, nf).T
+    w_line = _line_weights(weights, frf.shape, sel)
+    if w_line is None:
+        if weights is None:
+            rms = np.sqrt(np.mean(np.abs(h) ** 2, axis=(1, 2)))
+            weights = np.where(rms > 0, 1.0 / np.where(rms > 0, rms, 1.0), 0.0)
+        hw = (h * np.asarray(weights)[:, None, None]).reshape(n_out * n_in, nf).T
+    else:
+        hw = h.reshape(n_out * n_in, nf).T
     fn0, z0 = pole_to_modal(poles)
     z0 = np.clip(z0, 1e-5, 0.5)
 
+    z_max = 0.9  # the optimiser may try any step: keep trial poles underdamped and finite
+
     def unpack(x):
         n = poles.size
-        return modal_to_pole(fn0 * (1 + x[:n]), z0 * np.exp(x[n:]))
+        fn = fn0 * (1 + np.clip(x[:n], -0.5, 0.5))
+        return modal_to_pole(fn, np.minimum(z0 * np.exp(np.minimum(x[n:], 50.0)), z_max))
 
     def resid(x):
         a = _basis(unpack(x), f, powers, leakage)
-        _, syn = _solve(a, hw)
-        d = hw - syn
+        _, syn = _solve(a, hw, w_line)
+        d = hw - syn if w_line is None else (hw - syn) * w_line
         return np.concatenate([d.real.ravel(), d.imag.ravel()])
 
     x0 = np.zeros(2 * poles.size)
@@ -491,6 +544,7 @@ def fit_modal_model(
     estimator: str = "H1",
     refine: bool = True,
     iterations: int = 3,
+    weights: np.ndarray | None = None,
 ) -> LSFDResult:
     """Refine poles and fit residues, correcting the estimator's resolution bias.
 
@@ -521,6 +575,10 @@ def fit_modal_model(
         Refine the poles by nonlinear least squares (default True).
     iterations : int, optional
         Bias-correction iterations for H2/Hv (default 3).
+    weights : ndarray, shape (n_out, n_in, n_freq), optional
+        Weight of every line for the pole refinement and the residues, e.g.
+        :func:`~exudyn_study.identify.frf.frf_weights`; default per-output
+        1 / rms weights for the poles and unweighted residues.
 
     Returns
     -------
@@ -531,8 +589,8 @@ def fit_modal_model(
     frf, freq_hz = as_frf(frf, freq_hz)
     poles = _check_poles(poles)
     kw = {"band_hz": band_hz, "frf_form": frf_form, "leakage": leakage}
-    p = refine_poles(frf, freq_hz, poles, **kw) if refine else poles
-    res = lsfd(frf, freq_hz, p, **kw)
+    p = refine_poles(frf, freq_hz, poles, weights=weights, **kw) if refine else poles
+    res = lsfd(frf, freq_hz, p, weights=weights, **kw)
     if leakage is not None and estimator in ("H2", "Hv"):
         sel = band_mask(freq_hz, band_hz)
         for _ in range(max(0, int(iterations))):
@@ -542,8 +600,16 @@ def fit_modal_model(
                 corr = np.where(np.abs(ee) > 0, e1 / np.where(ee == 0, 1, ee), 1.0)
             h_eq = frf.copy()
             h_eq[:, :, sel] = frf[:, :, sel] * corr
-            p = refine_poles(h_eq, freq_hz, p, **kw) if refine else p
-            res = lsfd(h_eq, freq_hz, p, **kw)
+            w_eq = None
+            if weights is not None and np.ndim(weights) == 3:
+                # the mapped data carry the same relative error: scale the weights
+                w_eq = np.array(weights, dtype=float)
+                with np.errstate(invalid="ignore", divide="ignore"):
+                    w_eq[:, :, sel] = np.nan_to_num(w_eq[:, :, sel] / np.abs(corr))
+            elif weights is not None:
+                w_eq = weights
+            p = refine_poles(h_eq, freq_hz, p, weights=w_eq, **kw) if refine else p
+            res = lsfd(h_eq, freq_hz, p, weights=w_eq, **kw)
         # report the fit against the data as measured
         syn = welch_expectation(res, freq_hz[sel], leakage, estimator)
         h = frf[:, :, sel]
@@ -552,3 +618,7 @@ def fit_modal_model(
         err = np.where(den > 0, num / np.where(den > 0, den, 1.0), 0.0)
         res = dataclasses.replace(res, synthesised=syn, fit_error=err)
     return res
+
+
+# calling the module calls the function (see _checks.callable_module)
+callable_module(__name__, lsfd)

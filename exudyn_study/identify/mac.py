@@ -19,6 +19,7 @@ from __future__ import annotations
 import numpy as np
 
 from ..errors import InputError
+from ._checks import callable_module
 
 __all__ = ["mac", "automac", "mpc", "mcf", "mean_phase_deviation"]
 
@@ -137,3 +138,7 @@ def mean_phase_deviation(phi) -> np.ndarray:
         dev = np.minimum(np.abs(dev), np.pi - np.abs(dev))
         out[k] = np.sum(w * dev) / np.sum(w)
     return out
+
+
+# calling the module calls the function (see _checks.callable_module)
+callable_module(__name__, mac)

@@ -16,7 +16,7 @@ from dataclasses import dataclass
 import numpy as np
 
 from ..errors import InputError
-from .frf import FRF, estimate_frf
+from .frf import FRF, estimate_frf, frf_weights
 from .lsfd import Leakage, LSFDResult, fit_modal_model
 from .mac import mpc
 from .model import ModalModel, Mode
@@ -85,6 +85,7 @@ def identify_frf(
     frf_form: str = "accelerance",
     leakage_correction: bool = True,
     refine: bool = True,
+    weighting: str = "coherence",
     pin_hz: Sequence[float] = (),
     drop_hz: Sequence[float] = (),
     stability: dict | None = None,
@@ -110,6 +111,11 @@ def identify_frf(
         ``frf.sample_rate_hz``), see :class:`~exudyn_study.identify.lsfd.Leakage`.
     refine : bool, optional
         Refine the selected poles by nonlinear least squares (default True).
+    weighting : {'coherence', 'none'}, optional
+        Weight every line of the LSFD/refinement fit by the inverse standard
+        error of the FRF estimate from its coherence (default 'coherence',
+        :func:`~exudyn_study.identify.frf.frf_weights`; needs ``frf.n_averages``),
+        or fit with per-channel 1/rms weights ('none').
     pin_hz, drop_hz : sequence of float, optional
         Modes to force into / remove from the automatic selection (Hz).
     stability : dict, optional
@@ -138,6 +144,7 @@ def identify_frf(
         "references": list(frf.inputs),
         "orders": [min(poles.orders), max(poles.orders)],
         "leakage_correction": bool(leakage_correction and frf.sample_rate_hz is not None),
+        "weighting": weighting,
         "method": "PolyMAX + automatic clustering + LSFD",
     }
     meta.update(metadata or {})
@@ -147,8 +154,12 @@ def identify_frf(
     leak = None
     if leakage_correction and frf.sample_rate_hz is not None:
         leak = Leakage(frf.sample_rate_hz, frf.n_segment, frf.window)
+    if weighting not in ("coherence", "none"):
+        raise InputError(f"weighting {weighting!r}: expected 'coherence' or 'none'")
+    weights = frf_weights(frf) if weighting == "coherence" and frf.n_averages > 1 else None
     fit = fit_modal_model(frf.H, frf.freq_hz, sel.poles, band_hz=band, frf_form=frf_form,
-                          leakage=leak, estimator=frf.estimator, refine=refine)
+                          leakage=leak, estimator=frf.estimator, refine=refine,
+                          weights=weights)
     names = frf.outputs or tuple(f"ch{i}" for i in range(frf.H.shape[0]))
     phase_coll = mpc(fit.shapes)
     modes = []

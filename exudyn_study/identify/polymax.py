@@ -38,7 +38,7 @@ import numpy as np
 import scipy.linalg
 
 from ..errors import InputError
-from ._checks import as_frf, band_mask
+from ._checks import as_frf, band_mask, callable_module
 
 __all__ = ["Poles", "polymax", "pole_to_modal", "modal_to_pole", "STABILITY_DEFAULTS"]
 
@@ -377,3 +377,7 @@ def polymax(
                     "tol_vector": tol_vector},
         vector_kind="participation" if n_in > 1 else "shape",
     )
+
+
+# calling the module calls the function (see _checks.callable_module)
+callable_module(__name__, polymax)

@@ -18,12 +18,13 @@ therefore
    the order is high enough to split it), and reports each with the median of
    its members as estimate and their standard deviation as uncertainty;
 4. rejects *satellites*: an accepted cluster closer than ``satellite_frequency``
-   (relative) to an accepted cluster present at more orders, with the same shape (MAC above
-   ``satellite_mac``). A lightly damped mode resolved by few spectral lines is
-   smoothed by the spectral window into a peak no single pole pair fits, and
-   over-modelling then adds a consistent extra pole pair beside it with the
-   mode's own shape. Two genuine modes that close would need distinct shapes
-   to be told apart from the data at all.
+   (relative) or than ``satellite_bandwidths`` half-power bandwidths to an
+   accepted cluster present at more orders, with the same shape (median MAC over
+   the member pairs above ``satellite_mac``). A lightly damped mode resolved by
+   few spectral lines is smoothed by the spectral window into a peak no single
+   pole pair fits, and over-modelling then adds a consistent extra pole pair
+   beside it with the mode's own shape. Two genuine modes that close would need
+   distinct shapes to be told apart from the data at all.
 
 No absolute frequency window and no user frequency enters; the user may still pin
 (force) or drop modes near given frequencies (:func:`select_modes`).
@@ -149,6 +150,7 @@ def select_modes(
     max_damping: float = 0.2,
     satellite_frequency: float = 0.015,
     satellite_mac: float = 0.9,
+    satellite_bandwidths: float = 1.0,
     pin_hz: Sequence[float] = (),
     drop_hz: Sequence[float] = (),
 ) -> Selection:
@@ -171,6 +173,10 @@ def select_modes(
         Satellite rejection: relative frequency distance (default 0.015) and MAC
         (default 0.9) below/above which the cluster present at fewer orders is
         rejected.
+    satellite_bandwidths : float, optional
+        The satellite distance is at least this many half-power bandwidths
+        (``2 zeta f``) of the better-covered cluster (default 1): same-shape poles
+        inside one half-power band are one smoothed peak, not two modes.
     pin_hz : sequence of float, optional
         Frequencies (Hz) of modes to force into the selection: the nearest cluster
         within ``2 * tol_frequency`` is accepted even if its coverage is low.
@@ -228,9 +234,10 @@ def select_modes(
             clusters.append(_make_cluster(poles, idx, upper, ok,
                                           "automatic" if ok else "coverage"))
     clusters.sort(key=lambda c: c.frequency_hz)
-    # satellites: same shape, very close to a better-covered accepted cluster
-    rep = [poles.vector[c.members[np.argmin(np.abs(poles.frequency_hz[c.members]
-                                                   - c.frequency_hz))]] for c in clusters]
+    # satellites: same shape, very close to a better-covered accepted cluster. The
+    # shape similarity of two clusters is the median MAC over all pairs of their
+    # members: one representative pole per cluster would make the test depend on
+    # which member happens to lie nearest the median (a rounding-level tie).
     by_cov = sorted(range(len(clusters)), key=lambda i: -clusters[i].n_orders)
     for a_pos, i in enumerate(by_cov):
         if not clusters[i].accepted:
@@ -240,7 +247,8 @@ def select_modes(
             if not cj.accepted:
                 continue
             rel = abs(ci.frequency_hz - cj.frequency_hz) / max(ci.frequency_hz, cj.frequency_hz)
-            if rel < satellite_frequency and mac(rep[i], rep[j])[0, 0] > satellite_mac:
+            near = max(satellite_frequency, satellite_bandwidths * 2 * cj.damping_ratio)
+            if rel < near and _cluster_mac(poles, ci, cj) > satellite_mac:
                 clusters[i] = _replace(ci, accepted=False, reason="satellite")
                 break
 
@@ -273,8 +281,16 @@ def select_modes(
     settings = {"tol_frequency": tol_frequency, "tol_mac": tol_mac,
                 "min_coverage": min_coverage, "max_damping": max_damping,
                 "satellite_frequency": satellite_frequency, "satellite_mac": satellite_mac,
+                "satellite_bandwidths": satellite_bandwidths,
                 "pin_hz": [float(x) for x in pin_hz], "drop_hz": [float(x) for x in drop_hz]}
     return Selection(clusters=tuple(clusters), settings=settings)
+
+
+def _cluster_mac(poles: Poles, a: Cluster, b: Cluster) -> float:
+    """Median MAC between the pole vectors of the members of two clusters."""
+    va = poles.vector[a.members]
+    vb = poles.vector[b.members]
+    return float(np.median(mac(va.T, vb.T)))
 
 
 def _replace(c: Cluster, **kw) -> Cluster:
