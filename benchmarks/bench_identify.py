@@ -17,7 +17,15 @@ true mode; NaN = NaN poles; dup = modes reported more than once (merged);
 with the true shape; wall = identification wall time (FRF estimation excluded,
 given in the case name).
 
+Seed sweep (``--sweep``): the same test for seeds 1..N (excitation and noise
+realisations), per seed and estimator: number of modes, spurious modes, largest
+|df|, |dz| and lowest MAC, for our default fit (coherence weights) and the
+unweighted fit; then the *oracle*: the TRUE poles as starting values of the same
+leakage-aware fit, whose spread over the seeds is the scatter the FRF data of that
+record length support (mean and standard deviation of dz per mode).
+
 Run:  python benchmarks/bench_identify.py   (needs the 'bench' extra: sdypy-EMA)
+      python benchmarks/bench_identify.py --sweep --seeds 10 --durations 80
 """
 
 from __future__ import annotations
@@ -31,7 +39,14 @@ os.environ.setdefault("OPENBLAS_NUM_THREADS", "1")  # small LAPACK calls: thread
 
 import numpy as np  # noqa: E402
 
-from exudyn_study.identify import estimate_frf, identify_frf, mac  # noqa: E402
+from exudyn_study.identify import (  # noqa: E402
+    Leakage,
+    estimate_frf,
+    fit_modal_model,
+    frf_weights,
+    identify_frf,
+    mac,
+)
 from exudyn_study.identify.synthetic import simulate, table1_system  # noqa: E402
 
 BAND = (3.0, 50.0)
@@ -65,11 +80,12 @@ def _score(f_hat, z_hat, shapes, sysm):
     }
 
 
-def _ours(frf, sysm, leakage, duration):
+def _ours(frf, sysm, leakage, duration, weighting="coherence"):
     t0 = time.perf_counter()
     with warnings.catch_warnings(record=True) as caught:
         warnings.simplefilter("always", UserWarning)
-        res = identify_frf(frf, band_hz=BAND, leakage_correction=leakage, duration_s=duration)
+        res = identify_frf(frf, band_hz=BAND, leakage_correction=leakage, duration_s=duration,
+                           weighting=weighting)
     wall = time.perf_counter() - t0
     row = _score(res.model.frequency_hz, res.model.damping_ratio,
                  res.model.shapes(sysm.names), sysm)
@@ -109,12 +125,77 @@ def _fmt(name, row):
             f"{row['wall']:>8.1f}")
 
 
+def _oracle(frf, sysm, weighted):
+    """Damping/frequency errors (%) of the leakage-aware fit started at the TRUE poles."""
+    leak = Leakage(frf.sample_rate_hz, frf.n_segment, frf.window)
+    fit = fit_modal_model(frf.H, frf.freq_hz, sysm.poles, band_hz=BAND, leakage=leak,
+                          estimator=frf.estimator,
+                          weights=frf_weights(frf) if weighted else None)
+    return (100 * (fit.damping_ratio / sysm.damping_ratio - 1),
+            100 * (fit.frequency_hz / sysm.frequency_hz - 1))
+
+
+def sweep(durations, n_seeds, estimators=("H1", "H2", "Hv"), oracle=True) -> None:
+    """Seed sweep: per-seed figures, worst case, oracle scatter (see module notes)."""
+    sysm = table1_system(n_channels=36)
+    names = [f"{f:.2f}" for f in sysm.frequency_hz]
+    for duration in durations:
+        rows = {}
+        orc = {}
+        print(f"\n=== seed sweep, {duration:g} s, 36 channels, Hv/H1/H2 at 0.2 Hz, seeds "
+              f"1..{n_seeds} ===")
+        print(f"{'case':<26s} {'seed':>4s} {'modes':>5s} {'spur':>4s} {'|df|max%':>8s} "
+              f"{'|dz|max%':>8s} {'MACmin':>7s} {'wall s':>6s}  worst mode")
+        for seed in range(1, n_seeds + 1):
+            ref, resp = simulate(sysm, duration, noise=0.02, seed=seed)
+            for est in estimators:
+                frf = estimate_frf(ref, resp, 1000.0, resolution_hz=0.2, estimator=est,
+                                   fmax_hz=60.0, outputs=sysm.names, inputs=("ARFVZ",))
+                for wt in ("coherence", "none"):
+                    r = _ours(frf, sysm, True, duration, weighting=wt)
+                    n_modes = r["found"] + r["spurious"] + r["nan"]
+                    worst = max(r["dz_modes"], key=lambda k: abs(r["dz_modes"][k]))
+                    case = f"ours {est} {'weighted' if wt == 'coherence' else 'unweighted'}"
+                    rows.setdefault(case, []).append(r)
+                    print(f"{case:<26s} {seed:>4d} {n_modes:>5d} {r['spurious']:>4d} "
+                          f"{r['df']:>8.3f} {r['dz']:>8.2f} {r['mac']:>7.4f} {r['wall']:>6.1f}"
+                          f"  {worst} Hz {r['dz_modes'][worst]:+.1f} %", flush=True)
+                if oracle:
+                    for wt in (True, False):
+                        orc.setdefault((est, wt), []).append(_oracle(frf, sysm, wt)[0])
+        print(f"\nworst case over seeds 1..{n_seeds}, {duration:g} s:")
+        for case, rs in rows.items():
+            bad = [i + 1 for i, r in enumerate(rs) if r["found"] < 10 or r["spurious"] or r["dup"]]
+            print(f"  {case:<26s} all ten, no spurious in {len(rs) - len(bad)}/{len(rs)} seeds"
+                  f"{' (not: ' + str(bad) + ')' if bad else ''}; max |df| "
+                  f"{np.nanmax([r['df'] for r in rs]):.3f} %, max |dz| "
+                  f"{np.nanmax([r['dz'] for r in rs]):.2f} %, min MAC "
+                  f"{np.nanmin([r['mac'] for r in rs]):.4f}")
+        if oracle:
+            print(f"\noracle (true poles as start) damping error per mode over seeds 1..{n_seeds}, "
+                  f"{duration:g} s, % relative: mean / std / max|.|")
+            print(f"{'fit':<22s}{'':>6s}" + "".join(f"{n:>7s}" for n in names))
+            for (est, wt), vals in orc.items():
+                a = np.array(vals)
+                label = f"{est} {'weighted' if wt else 'unweighted'}"
+                for stat, v in (("mean", a.mean(0)), ("std", a.std(0, ddof=1)),
+                                ("max", np.abs(a).max(0))):
+                    print(f"{label:<22s}{stat:>6s}" + "".join(f"{x:>7.1f}" for x in v))
+
+
 def main() -> None:
     ap = argparse.ArgumentParser(description=__doc__.splitlines()[0])
     ap.add_argument("--durations", type=float, nargs="+", default=[80.0, 300.0])
     ap.add_argument("--seed", type=int, default=3)
     ap.add_argument("--no-sdypy", action="store_true")
+    ap.add_argument("--sweep", action="store_true", help="seed sweep instead of the comparison")
+    ap.add_argument("--seeds", type=int, default=10, help="seeds 1..N of the sweep (default 10)")
+    ap.add_argument("--estimators", nargs="+", default=["H1", "H2", "Hv"])
+    ap.add_argument("--no-oracle", action="store_true")
     args = ap.parse_args()
+    if args.sweep:
+        sweep(args.durations, args.seeds, tuple(args.estimators), oracle=not args.no_oracle)
+        return
     sysm = table1_system(n_channels=36)
     print(__doc__.split("Run:")[0])
     hdr = (f"{'case':<34s} {'found':>6s} {'spur':>4s} {'NaN':>4s} {'dup':>4s} "

@@ -37,6 +37,7 @@ from __future__ import annotations
 
 import dataclasses
 import functools
+import logging
 from dataclasses import dataclass
 
 import numpy as np
@@ -51,6 +52,8 @@ __all__ = [
     "FRF_FORMS", "Leakage", "LSFDResult", "lsfd", "refine_poles", "synthesise",
     "welch_expectation", "fit_modal_model",
 ]
+
+logger = logging.getLogger(__name__)
 
 #: FRF form -> powers of (j omega) of the lower and upper residual terms
 FRF_FORMS = {"receptance": (-2, 0), "mobility": (-1, 1), "accelerance": (0, 2)}
@@ -488,6 +491,12 @@ def refine_poles(
     if gaps.size:
         half[order] = 0.5 * np.minimum(np.r_[np.inf, gaps], np.r_[gaps, np.inf])
     if not sol.success or np.any(np.abs(fn_new - fn0) > half) or not np.all(np.isfinite(new)):
+        logger.warning(
+            "refine_poles: the refinement moved a pole by more than half the distance to its "
+            "neighbour (or did not converge); keeping the %d starting poles, whose damping "
+            "carries the window-leakage bias. Two of them probably stand for one mode.",
+            poles.size,
+        )
         return poles
     return new
 

@@ -112,6 +112,8 @@ class Poles:
         The stability tolerances used.
     vector_kind : str
         'participation' or 'shape'.
+    resolution_hz : float or None
+        Line spacing of the fitted FRFs in Hz.
     """
 
     order: np.ndarray
@@ -126,6 +128,7 @@ class Poles:
     band_hz: tuple[float, float]
     tolerances: dict
     vector_kind: str
+    resolution_hz: float | None = None
 
     @property
     def stable(self) -> np.ndarray:
@@ -376,6 +379,7 @@ def polymax(
         tolerances={"tol_frequency": tol_frequency, "tol_damping": tol_damping,
                     "tol_vector": tol_vector},
         vector_kind="participation" if n_in > 1 else "shape",
+        resolution_hz=float(np.median(np.diff(f))) if f.size > 1 else None,
     )
 
 

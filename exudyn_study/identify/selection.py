@@ -24,7 +24,8 @@ therefore
    few spectral lines is smoothed by the spectral window into a peak no single
    pole pair fits, and over-modelling then adds a consistent extra pole pair
    beside it with the mode's own shape. Two genuine modes that close would need
-   distinct shapes to be told apart from the data at all.
+   distinct shapes to be told apart from the data at all;
+5. rejects clusters within ``edge_lines`` spectral lines of a band edge.
 
 No absolute frequency window and no user frequency enters; the user may still pin
 (force) or drop modes near given frequencies (:func:`select_modes`).
@@ -78,7 +79,7 @@ class Cluster:
         Selected as a physical mode.
     reason : str
         Why it was accepted or rejected ('automatic', 'pinned', 'coverage',
-        'satellite', 'dropped').
+        'satellite', 'edge', 'dropped').
     """
 
     members: np.ndarray
@@ -151,6 +152,7 @@ def select_modes(
     satellite_frequency: float = 0.015,
     satellite_mac: float = 0.9,
     satellite_bandwidths: float = 1.0,
+    edge_lines: float = 2.0,
     pin_hz: Sequence[float] = (),
     drop_hz: Sequence[float] = (),
 ) -> Selection:
@@ -177,6 +179,11 @@ def select_modes(
         The satellite distance is at least this many half-power bandwidths
         (``2 zeta f``) of the better-covered cluster (default 1): same-shape poles
         inside one half-power band are one smoothed peak, not two modes.
+    edge_lines : float, optional
+        Clusters closer than this many spectral lines to an edge of the fitted
+        band are rejected (default 2; reason 'edge'): a peak cut by the band edge
+        cannot be told from the edge effects of the estimate (e.g. H2 where the
+        excitation starts) and the residual terms; widen the band to fit it.
     pin_hz : sequence of float, optional
         Frequencies (Hz) of modes to force into the selection: the nearest cluster
         within ``2 * tol_frequency`` is accepted even if its coverage is low.
@@ -231,8 +238,13 @@ def select_modes(
                 keep.append(io[np.argmin(np.abs(poles.frequency_hz[io] - med))])
             idx = np.array(sorted(keep))
             ok = _coverage(poles, idx, upper) >= min_coverage
-            clusters.append(_make_cluster(poles, idx, upper, ok,
-                                          "automatic" if ok else "coverage"))
+            reason = "automatic" if ok else "coverage"
+            if ok and poles.resolution_hz:
+                f_med = float(np.median(poles.frequency_hz[idx]))
+                lo, hi = poles.band_hz
+                if min(f_med - lo, hi - f_med) < edge_lines * poles.resolution_hz:
+                    ok, reason = False, "edge"
+            clusters.append(_make_cluster(poles, idx, upper, ok, reason))
     clusters.sort(key=lambda c: c.frequency_hz)
     # satellites: same shape, very close to a better-covered accepted cluster. The
     # shape similarity of two clusters is the median MAC over all pairs of their
@@ -281,7 +293,7 @@ def select_modes(
     settings = {"tol_frequency": tol_frequency, "tol_mac": tol_mac,
                 "min_coverage": min_coverage, "max_damping": max_damping,
                 "satellite_frequency": satellite_frequency, "satellite_mac": satellite_mac,
-                "satellite_bandwidths": satellite_bandwidths,
+                "satellite_bandwidths": satellite_bandwidths, "edge_lines": edge_lines,
                 "pin_hz": [float(x) for x in pin_hz], "drop_hz": [float(x) for x in drop_hz]}
     return Selection(clusters=tuple(clusters), settings=settings)
 

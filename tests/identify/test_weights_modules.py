@@ -52,3 +52,23 @@ def test_calling_the_module_calls_the_function():
 
     np.testing.assert_allclose(mac(np.eye(3), np.eye(3)), np.eye(3))
     assert ident.lsfd.Leakage is Leakage
+
+
+def test_pole_at_the_band_edge_is_rejected():
+    # a mode 0.1 Hz inside the band edge (half a line at 0.2 Hz) cannot be told from
+    # edge effects: reason 'edge'; the same mode well inside the band is accepted
+    from exudyn_study.identify import modal_to_pole, polymax, select_modes
+    from exudyn_study.identify.synthetic import pole_residue_frf
+
+    f = np.arange(0, 60.0001, 0.2)
+    poles = modal_to_pole(np.array([10.1, 30.0]), np.array([0.01, 0.02]))
+    rng = np.random.default_rng(1)
+    res = (rng.standard_normal((6, 1, 2)) + 1j * rng.standard_normal((6, 1, 2))) * 50
+    h = pole_residue_frf(poles, res, f)
+    p = polymax(h, f, range(2, 21), band_hz=(10.0, 50.0))
+    assert p.resolution_hz == pytest.approx(0.2)
+    sel = select_modes(p)
+    assert [round(c.frequency_hz, 1) for c in sel.modes] == [30.0]
+    assert any(c.reason == "edge" and abs(c.frequency_hz - 10.1) < 0.05 for c in sel.clusters)
+    sel2 = select_modes(polymax(h, f, range(2, 21), band_hz=(8.0, 50.0)))
+    assert [round(c.frequency_hz, 1) for c in sel2.modes] == [10.1, 30.0]
