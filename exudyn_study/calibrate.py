@@ -76,6 +76,7 @@ and abuse. Sound and Vibration 37(8).
 
 from __future__ import annotations
 
+import contextlib
 import json
 import logging
 import math
@@ -124,6 +125,19 @@ _IMAG_RTOL = 1e-9
 #: modes below this frequency (Hz) are rigid-body / constraint-drift zeros
 _RIGID_HZ = 1e-3
 _INFEASIBLE = 1e6
+
+
+def _single_threaded_blas():
+    """Limit BLAS/LAPACK to one thread for the small dense eigen-solves.
+
+    On a loaded 2-core machine OpenBLAS's threads made one 124 x 124 ``eig`` take 2.5 s
+    instead of 0.02 s (measured). Uses ``threadpoolctl`` when installed, else does nothing.
+    """
+    try:
+        from threadpoolctl import threadpool_limits
+    except ImportError:  # optional: without it the eigen-solves may be slower under load
+        return contextlib.nullcontext()
+    return threadpool_limits(limits=1, user_api="blas")
 
 
 # ---------------------------------------------------------------------------- the seam
@@ -885,6 +899,7 @@ class CalibrationResult:
             f"{'mode':>4} {'f model Hz':>10} {'zeta %':>7} {'f target Hz':>11} {'target %':>8} "
             f"{'error pp':>8} {'MAC':>5}"
         ]
+
         def pct(v):
             return None if v is None else 100 * v
 
@@ -1091,207 +1106,209 @@ def calibrate(
         No target mode can be paired with a model mode (e.g. none in the model's band),
         start/prior outside [0, 1), wrong weights.
     """
-    t_start = time.perf_counter()
-    builder = None if isinstance(system, CalibrationSystem) else system
-    tf, tz, _, _ = _target_arrays(target, ())
-    prior_v = (
-        np.full(design.n_variables, float(np.mean(tz)))
-        if prior is None
-        else np.broadcast_to(np.asarray(prior, float), (design.n_variables,)).copy()
-    )
-    validate_ratios(prior_v, "prior damping ratio")
-    prior_v = np.minimum(prior_v, design.upper)
-    x_start = (
-        prior_v.copy()
-        if x0 is None
-        else validate_ratios(np.asarray(x0, float).ravel(), "start damping ratio")
-    )
-    if x_start.size != design.n_variables:
-        raise InputError(f"x0 has {x_start.size} values; the design has {design.n_variables} variables")
-    x_start = np.minimum(x_start, design.upper)
-    w_t = np.ones(tf.size) if weights is None else np.asarray(weights, float).ravel()
-    if w_t.size != tf.size or not np.all(np.isfinite(w_t)) or np.any(w_t < 0):
-        raise InputError(f"weights: expected {tf.size} finite values >= 0 (one per target mode)")
-    if regularization < 0 or not math.isfinite(regularization):
-        raise InputError(f"regularization={regularization!r}: expected a finite value >= 0")
-
-    if builder is not None:
-        system = builder(design.ratios(x_start))
-        if not isinstance(system, CalibrationSystem):
-            raise InputError("builder: expected it to return a CalibrationSystem")
-    t_lin = time.perf_counter()
-    lin = linearise(system, design)
-    t_lin = time.perf_counter() - t_lin
-    tf, tz, channels, t_shapes = _target_arrays(target, lin.sensor_names)
-    rows_idx = [lin.sensor_names.index(c) for c in channels]
-    band = (tf.min() / (1 + freq_tol), tf.max() * (1 + freq_tol))
-
-    def in_band(m: SystemModes) -> np.ndarray:
-        return np.flatnonzero((m.frequency_hz >= band[0]) & (m.frequency_hz <= band[1]))
-
-    def pair(m: SystemModes) -> tuple[np.ndarray, Pairing]:
-        band_idx = in_band(m)
-        shapes = m.shapes[rows_idx][:, band_idx] if t_shapes is not None else None
-        p = pair_modes(
-            m.frequency_hz[band_idx],
-            tf,
-            shapes,
-            t_shapes,
-            mac_min=mac_min,
-            freq_tol=freq_tol,
-            freq_weight=freq_weight,
+    with _single_threaded_blas():
+        t_start = time.perf_counter()
+        builder = None if isinstance(system, CalibrationSystem) else system
+        tf, tz, _, _ = _target_arrays(target, ())
+        prior_v = (
+            np.full(design.n_variables, float(np.mean(tz)))
+            if prior is None
+            else np.broadcast_to(np.asarray(prior, float), (design.n_variables,)).copy()
         )
-        return band_idx, p
-
-    n_eval = 0
-    eval_time = 0.0
-    cache: dict[bytes, SystemModes] = {}
-
-    def evaluate(x) -> SystemModes:
-        nonlocal n_eval, eval_time
-        key = np.asarray(x, float).tobytes()
-        if key not in cache:
-            cache.clear()
-            t0 = time.perf_counter()
-            cache[key] = lin.modes(x, derivatives=True)
-            eval_time += time.perf_counter() - t0
-            n_eval += 1
-        return cache[key]
-
-    x = x_start
-    modes = evaluate(x)
-    band_idx, pairing = pair(modes)
-    if len(pairing) == 0:
-        raise InputError(
-            f"target: none of its {tf.size} modes ({tf.min():.3g}-{tf.max():.3g} Hz) pairs with a model mode "
-            f"(model modes in {band[0]:.3g}-{band[1]:.3g} Hz: {band_idx.size}; mac_min={mac_min}, "
-            f"freq_tol={freq_tol}); is the target in the model's frequency band?"
+        validate_ratios(prior_v, "prior damping ratio")
+        prior_v = np.minimum(prior_v, design.upper)
+        x_start = (
+            prior_v.copy()
+            if x0 is None
+            else validate_ratios(np.asarray(x0, float).ravel(), "start damping ratio")
         )
-    alpha = float(regularization)
-    eye = np.eye(design.n_variables)
-    n_pairings = 0
-    message, success = "", False
-    seen: list[tuple] = []
-    while True:
-        n_pairings += 1
-        ref_vec = modes.vectors[:, band_idx[pairing.model_index]]
-        ref_f = modes.frequency_hz[band_idx[pairing.model_index]]
-        t_idx = pairing.target_index
-        wt = w_t[t_idx]
+        if x_start.size != design.n_variables:
+            raise InputError(f"x0 has {x_start.size} values; the design has {design.n_variables} variables")
+        x_start = np.minimum(x_start, design.upper)
+        w_t = np.ones(tf.size) if weights is None else np.asarray(weights, float).ravel()
+        if w_t.size != tf.size or not np.all(np.isfinite(w_t)) or np.any(w_t < 0):
+            raise InputError(f"weights: expected {tf.size} finite values >= 0 (one per target mode)")
+        if regularization < 0 or not math.isfinite(regularization):
+            raise InputError(f"regularization={regularization!r}: expected a finite value >= 0")
 
-        def tracked(m: SystemModes, ref_vec=ref_vec, ref_f=ref_f) -> np.ndarray:
-            macs = mac(ref_vec, m.vectors)
-            rel = np.abs(m.frequency_hz[None, :] - ref_f[:, None]) / ref_f[:, None]
-            _, cols = linear_sum_assignment((1.0 - macs) + freq_weight * rel)
-            return cols
+        if builder is not None:
+            system = builder(design.ratios(x_start))
+            if not isinstance(system, CalibrationSystem):
+                raise InputError("builder: expected it to return a CalibrationSystem")
+        t_lin = time.perf_counter()
+        lin = linearise(system, design)
+        t_lin = time.perf_counter() - t_lin
+        tf, tz, channels, t_shapes = _target_arrays(target, lin.sensor_names)
+        rows_idx = [lin.sensor_names.index(c) for c in channels]
+        band = (tf.min() / (1 + freq_tol), tf.max() * (1 + freq_tol))
 
-        def fun(xv, t_idx=t_idx, wt=wt, tracked=tracked):
-            m = evaluate(xv)
-            r = wt * (m.damping_ratio[tracked(m)] - tz[t_idx])
-            return np.concatenate([r, alpha * (xv - prior_v)]) if alpha > 0 else r
+        def in_band(m: SystemModes) -> np.ndarray:
+            return np.flatnonzero((m.frequency_hz >= band[0]) & (m.frequency_hz <= band[1]))
 
-        def jac(xv, wt=wt, tracked=tracked):
-            m = evaluate(xv)
-            j = wt[:, None] * m.d_damping[tracked(m)]
-            return np.vstack([j, alpha * eye]) if alpha > 0 else j
+        def pair(m: SystemModes) -> tuple[np.ndarray, Pairing]:
+            band_idx = in_band(m)
+            shapes = m.shapes[rows_idx][:, band_idx] if t_shapes is not None else None
+            p = pair_modes(
+                m.frequency_hz[band_idx],
+                tf,
+                shapes,
+                t_shapes,
+                mac_min=mac_min,
+                freq_tol=freq_tol,
+                freq_weight=freq_weight,
+            )
+            return band_idx, p
 
-        sol = least_squares(
-            fun,
-            x,
-            jac=jac,
-            bounds=(0.0, design.upper),
-            method="trf",
-            ftol=1e-14,
-            xtol=1e-14,
-            gtol=1e-14,
-            max_nfev=max_evaluations,
-        )
-        x = sol.x
-        success, message = bool(sol.success), str(sol.message)
+        n_eval = 0
+        eval_time = 0.0
+        cache: dict[bytes, SystemModes] = {}
+
+        def evaluate(x) -> SystemModes:
+            nonlocal n_eval, eval_time
+            key = np.asarray(x, float).tobytes()
+            if key not in cache:
+                cache.clear()
+                t0 = time.perf_counter()
+                cache[key] = lin.modes(x, derivatives=True)
+                eval_time += time.perf_counter() - t0
+                n_eval += 1
+            return cache[key]
+
+        x = x_start
         modes = evaluate(x)
-        tracked_cols = tracked(modes)
-        band_idx, new = pair(modes)
-        key = (tuple(band_idx[new.model_index]), tuple(new.target_index))
-        old = (tuple(tracked_cols), tuple(t_idx))
-        if key == old or n_pairings >= max_pairings or key in seen:
+        band_idx, pairing = pair(modes)
+        if len(pairing) == 0:
+            raise InputError(
+                f"target: none of its {tf.size} modes ({tf.min():.3g}-{tf.max():.3g} Hz) "
+                "pairs with a model mode "
+                f"(model modes in {band[0]:.3g}-{band[1]:.3g} Hz: {band_idx.size}; mac_min={mac_min}, "
+                f"freq_tol={freq_tol}); is the target in the model's frequency band?"
+            )
+        alpha = float(regularization)
+        eye = np.eye(design.n_variables)
+        n_pairings = 0
+        message, success = "", False
+        seen: list[tuple] = []
+        while True:
+            n_pairings += 1
+            ref_vec = modes.vectors[:, band_idx[pairing.model_index]]
+            ref_f = modes.frequency_hz[band_idx[pairing.model_index]]
+            t_idx = pairing.target_index
+            wt = w_t[t_idx]
+
+            def tracked(m: SystemModes, ref_vec=ref_vec, ref_f=ref_f) -> np.ndarray:
+                macs = mac(ref_vec, m.vectors)
+                rel = np.abs(m.frequency_hz[None, :] - ref_f[:, None]) / ref_f[:, None]
+                _, cols = linear_sum_assignment((1.0 - macs) + freq_weight * rel)
+                return cols
+
+            def fun(xv, t_idx=t_idx, wt=wt, tracked=tracked):
+                m = evaluate(xv)
+                r = wt * (m.damping_ratio[tracked(m)] - tz[t_idx])
+                return np.concatenate([r, alpha * (xv - prior_v)]) if alpha > 0 else r
+
+            def jac(xv, wt=wt, tracked=tracked):
+                m = evaluate(xv)
+                j = wt[:, None] * m.d_damping[tracked(m)]
+                return np.vstack([j, alpha * eye]) if alpha > 0 else j
+
+            sol = least_squares(
+                fun,
+                x,
+                jac=jac,
+                bounds=(0.0, design.upper),
+                method="trf",
+                ftol=1e-14,
+                xtol=1e-14,
+                gtol=1e-14,
+                max_nfev=max_evaluations,
+            )
+            x = sol.x
+            success, message = bool(sol.success), str(sol.message)
+            modes = evaluate(x)
+            tracked_cols = tracked(modes)
+            band_idx, new = pair(modes)
+            key = (tuple(band_idx[new.model_index]), tuple(new.target_index))
+            old = (tuple(tracked_cols), tuple(t_idx))
+            if key == old or n_pairings >= max_pairings or key in seen:
+                pairing = new
+                break
+            log.info("re-pairing after solve %d: %s -> %s", n_pairings, old, key)
+            seen.append(old)
             pairing = new
-            break
-        log.info("re-pairing after solve %d: %s -> %s", n_pairings, old, key)
-        seen.append(old)
-        pairing = new
 
-    # ---- table
-    rows: list[ModeRow] = []
-    paired_by_model = dict(zip(pairing.model_index.tolist(), range(len(pairing)), strict=True))
-    for j, mi in enumerate(band_idx):
-        f_m, z_m = float(modes.frequency_hz[mi]), float(modes.damping_ratio[mi])
-        if j in paired_by_model:
-            p = paired_by_model[j]
-            ti = int(pairing.target_index[p])
-            rows.append(
-                ModeRow(
-                    j + 1, f_m, z_m, float(tf[ti]), float(tz[ti]), _f(pairing.mac[p]), z_m - float(tz[ti])
+        # ---- table
+        rows: list[ModeRow] = []
+        paired_by_model = dict(zip(pairing.model_index.tolist(), range(len(pairing)), strict=True))
+        for j, mi in enumerate(band_idx):
+            f_m, z_m = float(modes.frequency_hz[mi]), float(modes.damping_ratio[mi])
+            if j in paired_by_model:
+                p = paired_by_model[j]
+                ti = int(pairing.target_index[p])
+                rows.append(
+                    ModeRow(
+                        j + 1, f_m, z_m, float(tf[ti]), float(tz[ti]), _f(pairing.mac[p]), z_m - float(tz[ti])
+                    )
                 )
-            )
-        else:
-            rows.append(ModeRow(j + 1, f_m, z_m, None, None, None, None))
-    for ti in pairing.unpaired_target:
-        rows.append(ModeRow(None, None, None, float(tf[ti]), float(tz[ti]), None, None))
-    rows.sort(key=lambda r: r.frequency_hz if r.frequency_hz is not None else r.target_frequency_hz)
+            else:
+                rows.append(ModeRow(j + 1, f_m, z_m, None, None, None, None))
+        for ti in pairing.unpaired_target:
+            rows.append(ModeRow(None, None, None, float(tf[ti]), float(tz[ti]), None, None))
+        rows.sort(key=lambda r: r.frequency_hz if r.frequency_hz is not None else r.target_frequency_hz)
 
-    ratios = design.ratios(np.clip(x, 0.0, design.upper))
-    check = None
-    if verify:
-        if builder is None:
-            raise InputError("verify=True needs a builder (a callable), not an already built system")
-        f_ex, z_ex = exudyn_damped_modes(builder(ratios).mbs)
-        diffs = []
-        for mi in band_idx:
-            k = int(
-                np.argmin(
-                    np.abs(f_ex - modes.frequency_hz[mi]) / modes.frequency_hz[mi]
-                    + np.abs(z_ex - modes.damping_ratio[mi])
+        ratios = design.ratios(np.clip(x, 0.0, design.upper))
+        check = None
+        if verify:
+            if builder is None:
+                raise InputError("verify=True needs a builder (a callable), not an already built system")
+            f_ex, z_ex = exudyn_damped_modes(builder(ratios).mbs)
+            diffs = []
+            for mi in band_idx:
+                k = int(
+                    np.argmin(
+                        np.abs(f_ex - modes.frequency_hz[mi]) / modes.frequency_hz[mi]
+                        + np.abs(z_ex - modes.damping_ratio[mi])
+                    )
                 )
-            )
-            diffs.append(abs(z_ex[k] - modes.damping_ratio[mi]))
-        check = float(max(diffs)) if diffs else None
-    settings = {
-        "regularization": alpha,
-        "prior": prior_v.tolist(),
-        "mac_min": mac_min,
-        "freq_tol": freq_tol,
-        "freq_weight": freq_weight,
-        "band_hz": list(band),
-        "channels": list(channels),
-        "n_coordinates": lin.size,
-        "n_variables": design.n_variables,
-        "n_targets": int(tf.size),
-    }
-    result = CalibrationResult(
-        rows=tuple(rows),
-        variable_names=design.variable_names,
-        variables=np.asarray(x, float),
-        body_damping=ratios,
-        body_frequencies_hz=dict(design.body_frequencies_hz),
-        design_mask={b: a >= 0 for b, a in design.assignment.items()},
-        success=success,
-        message=message,
-        n_evaluations=n_eval,
-        n_pairings=n_pairings,
-        wall_time_s=time.perf_counter() - t_start,
-        linearise_time_s=t_lin,
-        evaluation_time_s=eval_time / max(n_eval, 1),
-        exudyn_check=check,
-        settings=settings,
-    )
-    log.info(
-        "calibration: %d paired, max error %.2e, %d evaluations, %.2f s",
-        len(result.paired),
-        result.max_abs_error,
-        n_eval,
-        result.wall_time_s,
-    )
-    return result
+                diffs.append(abs(z_ex[k] - modes.damping_ratio[mi]))
+            check = float(max(diffs)) if diffs else None
+        settings = {
+            "regularization": alpha,
+            "prior": prior_v.tolist(),
+            "mac_min": mac_min,
+            "freq_tol": freq_tol,
+            "freq_weight": freq_weight,
+            "band_hz": list(band),
+            "channels": list(channels),
+            "n_coordinates": lin.size,
+            "n_variables": design.n_variables,
+            "n_targets": int(tf.size),
+        }
+        result = CalibrationResult(
+            rows=tuple(rows),
+            variable_names=design.variable_names,
+            variables=np.asarray(x, float),
+            body_damping=ratios,
+            body_frequencies_hz=dict(design.body_frequencies_hz),
+            design_mask={b: a >= 0 for b, a in design.assignment.items()},
+            success=success,
+            message=message,
+            n_evaluations=n_eval,
+            n_pairings=n_pairings,
+            wall_time_s=time.perf_counter() - t_start,
+            linearise_time_s=t_lin,
+            evaluation_time_s=eval_time / max(n_eval, 1),
+            exudyn_check=check,
+            settings=settings,
+        )
+        log.info(
+            "calibration: %d paired, max error %.2e, %d evaluations, %.2f s",
+            len(result.paired),
+            result.max_abs_error,
+            n_eval,
+            result.wall_time_s,
+        )
+        return result
 
 
 # ---------------------------------------------------------------------------- rig adapter
