@@ -1,0 +1,425 @@
+"""Simulate a rig model into a :class:`~exudyn_study.recording.Recording`.
+
+Two paths share one drive (the piston displacement, a natural cubic spline through
+samples at :data:`OUTPUT_RATE_HZ`, faded in over ``ramp_s`` so that the model starts at
+rest and consistent):
+
+``method='exudyn'`` (:func:`simulate_exudyn`)
+    Exudyn's implicit time integration (generalised-alpha) of the assembled model.
+    Accelerations of the sensors' mesh nodes are stored at 1000 Hz. Settings are in
+    :class:`IntegratorSettings`; the defaults were chosen against the exact linear
+    solution (``benchmarks/bench_simulation.py``): no numerical damping
+    (``spectral_radius=1``, the trapezoidal rule: no amplitude error, period error
+    ``(w h)^2 / 12``), modified Newton with the Jacobian kept (the problem is linear in
+    practice: one iteration per step), a constant step.
+
+``method='linear'`` (:func:`simulate_linear`)
+    The linearised system of :func:`exudyn_study.modal.linearize` integrated *exactly*:
+    within each sample interval the drive is a cubic, so ``psi = (u, u', u'', u''')``
+    obeys ``psi' = J psi`` and one matrix exponential of the augmented system gives the
+    exact discrete map (a generalisation of first-order hold). The state recursion
+    runs mode by mode (diagonalised, ``scipy.signal.lfilter``).
+
+:func:`frf_linear` gives the drive -> sensor-acceleration FRFs of the linearised model by
+complex modal superposition.
+"""
+
+from __future__ import annotations
+
+import logging
+import math
+import time
+from dataclasses import dataclass
+
+import numpy as np
+import scipy.linalg as sla
+from scipy import signal as sps
+
+from .errors import InputError, SimulationError
+from .recording import Recording
+
+__all__ = [
+    "OUTPUT_RATE_HZ",
+    "DRIVE_RATE_HZ",
+    "METHODS",
+    "IntegratorSettings",
+    "prepare_drive",
+    "simulate",
+    "simulate_exudyn",
+    "simulate_linear",
+    "frf_linear",
+    "band_limited_rms_error",
+]
+
+log = logging.getLogger(__name__)
+
+#: accelerometer sampling rate of the rig (thesis Section 3.3)
+OUTPUT_RATE_HZ = 1000.0
+#: rate of the drive channel in recordings (the rig controller's 204.8 Hz, thesis Section 7.2)
+DRIVE_RATE_HZ = 204.8
+METHODS = ("exudyn", "linear")
+
+
+@dataclass(frozen=True)
+class IntegratorSettings:
+    """Exudyn time-integration settings.
+
+    Parameters
+    ----------
+    step_s : float
+        Constant time step (s); must divide the output period 1 ms.
+    spectral_radius : float
+        Generalised-alpha rho_infinity (1: trapezoidal rule, no numerical damping).
+    modified_newton : bool
+        Reuse the Jacobian across steps (recomputed only when Newton stalls).
+    relative_tolerance, absolute_tolerance : float
+        Newton tolerances.
+    divergence_limit : float
+        Sensor accelerations above this (m/s^2) count as divergence.
+    """
+
+    step_s: float = 0.25e-3
+    spectral_radius: float = 1.0
+    modified_newton: bool = True
+    relative_tolerance: float = 1e-8
+    absolute_tolerance: float = 1e-10
+    divergence_limit: float = 1e5
+
+    def __post_init__(self) -> None:
+        if not (math.isfinite(self.step_s) and 0 < self.step_s <= 1.0 / OUTPUT_RATE_HZ):
+            raise InputError(f"step_s {self.step_s!r}; expected a step in (0, 1 ms]")
+        ratio = (1.0 / OUTPUT_RATE_HZ) / self.step_s
+        if abs(ratio - round(ratio)) > 1e-9:
+            raise InputError(f"step_s {self.step_s!r}: must divide the output period of 1 ms")
+        if not 0.0 <= self.spectral_radius <= 1.0:
+            raise InputError(f"spectral_radius {self.spectral_radius!r}; expected a value in [0, 1]")
+
+
+def _ramp(n: int, rate_hz: float, ramp_s: float) -> np.ndarray:
+    """Half-cosine fade-in over ``ramp_s`` (zero value and slope at t = 0)."""
+    w = np.ones(n)
+    m = min(n, int(round(ramp_s * rate_hz)))
+    if m > 1:
+        w[:m] = 0.5 - 0.5 * np.cos(np.pi * np.arange(m) / m)
+    return w
+
+
+def prepare_drive(signal="white-noise", duration_s: float = 80.0, rms_m: float | None = None, seed: int = 0,
+                  sample_rate_hz: float | None = None, ramp_s: float = 0.25) -> np.ndarray:
+    """Drive displacement samples at :data:`OUTPUT_RATE_HZ` (m), faded in.
+
+    Parameters
+    ----------
+    signal : str or array_like
+        A name of :data:`exudyn_study.signals.SIGNALS` ('white-noise', 'test', 'test-50'),
+        or drive samples in m (e.g. the drive channel of a measured recording).
+    duration_s : float
+        Duration for a named signal (s); ignored for samples.
+    rms_m : float, optional
+        Rms of a named signal (default :data:`exudyn_study.signals.DEFAULT_RMS_M`).
+    seed : int
+    sample_rate_hz : float, optional
+        Rate of given samples: :data:`DRIVE_RATE_HZ` (resampled, anti-aliased) or
+        :data:`OUTPUT_RATE_HZ`.
+    ramp_s : float
+        Fade-in time (s).
+
+    Raises
+    ------
+    InputError
+        Unknown signal name, NaN samples, a rate other than 204.8 or 1000 Hz.
+    """
+    from .signals import DEFAULT_RMS_M, drive_signal, resample
+
+    if isinstance(signal, str):
+        if not (math.isfinite(duration_s) and duration_s > 0):
+            raise InputError(f"duration_s {duration_s!r}; expected a positive duration in s")
+        x = drive_signal(signal, duration_s, OUTPUT_RATE_HZ, DEFAULT_RMS_M if rms_m is None else rms_m, seed)
+    else:
+        x = np.asarray(signal, dtype=float).ravel()
+        bad = ~np.isfinite(x)
+        if bad.any():
+            raise InputError(f"drive signal has non-finite samples, the first at index {int(np.flatnonzero(bad)[0])}")
+        if sample_rate_hz is None or not any(abs(sample_rate_hz - r) < 1e-9 for r in (DRIVE_RATE_HZ, OUTPUT_RATE_HZ)):
+            raise InputError(
+                f"drive signal sampled at {sample_rate_hz!r} Hz; expected {DRIVE_RATE_HZ} Hz (the rig's drive "
+                f"channel) or {OUTPUT_RATE_HZ} Hz")
+        if abs(sample_rate_hz - DRIVE_RATE_HZ) < 1e-9:
+            x = resample(x, DRIVE_RATE_HZ, OUTPUT_RATE_HZ)
+        if x.size < 8:
+            raise InputError(f"drive signal of {x.size} samples; expected a longer signal")
+    return x * _ramp(x.size, OUTPUT_RATE_HZ, ramp_s)
+
+
+# --------------------------------------------------------------------------------------- linear path
+def _spline_inputs(drive) -> np.ndarray:
+    """psi = (u, u', u'', u''') at the samples (u''' of the interval starting there), (4, N)."""
+    c = drive._coef  # (4, N-1): c0 dt^3 + c1 dt^2 + c2 dt + c3
+    n = drive.samples.size
+    psi = np.zeros((4, n))
+    psi[0, :-1], psi[1, :-1], psi[2, :-1], psi[3, :-1] = c[3], c[2], 2.0 * c[1], 6.0 * c[0]
+    h = 1.0 / drive.sample_rate_hz
+    last = c[:, -1]
+    psi[0, -1] = ((last[0] * h + last[1]) * h + last[2]) * h + last[3]
+    psi[1, -1] = (3.0 * last[0] * h + 2.0 * last[1]) * h + last[2]
+    psi[2, -1] = 6.0 * last[0] * h + 2.0 * last[1]
+    psi[3, -1] = 6.0 * last[0]
+    return psi
+
+
+def _state_space(lin):
+    n = lin.size
+    minv = np.linalg.inv(lin.mass)
+    a = np.block([[np.zeros((n, n)), np.eye(n)], [-minv @ lin.stiffness, -minv @ lin.damping]])
+    b = np.zeros((2 * n, 4))
+    b[n:, 0], b[n:, 1], b[n:, 2] = -minv @ lin.b0, -minv @ lin.b1, -minv @ lin.b2
+    so = lin.sensor_output  # (n_s, n)
+    c = so @ a[n:, :]
+    d = np.zeros((so.shape[0], 4))
+    d[:, :3] = so @ b[n:, :3]
+    d[:, 2] += lin.sensor_drive
+    return a, b, c, d
+
+
+def simulate_linear(lin, drive, chunk: int = 8192) -> np.ndarray:
+    """Exact sampled sensor accelerations of the linearised model, shape (n_sensors, N).
+
+    Parameters
+    ----------
+    lin : exudyn_study.modal.LinearSystem
+    drive : exudyn_study.model.Drive
+        With its signal set; outputs at its sample instants.
+    chunk : int
+        Samples per block (memory bound).
+    """
+    a, b, c, d = _state_space(lin)
+    h = 1.0 / drive.sample_rate_hz
+    m2 = a.shape[0]
+    big = np.zeros((m2 + 4, m2 + 4))
+    big[:m2, :m2], big[:m2, m2:] = a, b
+    big[m2, m2 + 1] = big[m2 + 1, m2 + 2] = big[m2 + 2, m2 + 3] = 1.0
+    e = sla.expm(big * h)
+    gamma = e[:m2, m2:]
+    lam, v = sla.eig(a)
+    mu = np.exp(lam * h)
+    vinv_gamma = np.linalg.solve(v, gamma)
+    cv = c @ v
+    # complex-conjugate pairs: keep Im >= 0, weight 2 for Im > 0 (the output is real)
+    keep = lam.imag >= 0.0
+    weight = np.where(lam.imag > 0.0, 2.0, 1.0)[keep]
+    mu, vinv_gamma, cv = mu[keep], vinv_gamma[keep], cv[:, keep] * weight
+    psi = _spline_inputs(drive)
+    n_t = psi.shape[1]
+    out = np.empty((c.shape[0], n_t))
+    xi = np.zeros(mu.size, dtype=complex)
+    for k0 in range(0, n_t, chunk):
+        k1 = min(n_t, k0 + chunk)
+        g = vinv_gamma @ psi[:, k0:k1]  # (modes, L)
+        states = np.empty_like(g)
+        for j in range(mu.size):
+            w, _ = sps.lfilter([1.0], [1.0, -mu[j]], g[j], zi=[mu[j] * xi[j]])
+            states[j, 0] = xi[j]
+            states[j, 1:] = w[:-1]
+            xi[j] = w[-1]
+        out[:, k0:k1] = (cv @ states).real + d @ psi[:, k0:k1]
+    return out
+
+
+def frf_linear(lin, frequencies_hz) -> np.ndarray:
+    """Drive displacement -> sensor acceleration FRFs by complex modal superposition.
+
+    Returns
+    -------
+    ndarray, complex, shape (n_sensors, 1, n_freq)
+        ``H[n_out, n_in, n_freq]`` in (m/s^2)/m.
+    """
+    f = np.asarray(frequencies_hz, dtype=float)
+    a, b, c, d = _state_space(lin)
+    lam, v = sla.eig(a)
+    g = np.linalg.solve(v, b)
+    cv = c @ v
+    w = 2.0 * np.pi * f
+    s = 1j * w
+    psi = np.vstack([np.ones_like(s), s, s**2, s**3])  # (4, n_f)
+    modal = (g @ psi) / (s[None, :] - lam[:, None])
+    return (cv @ modal + d @ psi)[:, None, :]
+
+
+# --------------------------------------------------------------------------------------- Exudyn path
+def simulate_exudyn(model, drive_samples: np.ndarray, settings: IntegratorSettings = IntegratorSettings(),
+                    progress: bool = False) -> tuple[np.ndarray, dict]:
+    """Integrate the model in Exudyn; sensor accelerations at 1000 Hz, shape (n_sensors, N).
+
+    Parameters
+    ----------
+    model : exudyn_study.model.Model
+        Assembled here if needed (sensors were added by the builder).
+    drive_samples : ndarray
+        Drive at :data:`OUTPUT_RATE_HZ` (see :func:`prepare_drive`).
+    settings : IntegratorSettings
+    progress : bool
+        Show a tqdm bar (simulated seconds).
+
+    Returns
+    -------
+    accelerations : ndarray, shape (n_sensors, N)
+    stats : dict
+        'wall_s', 'real_time_factor', 'steps', 'newton_iterations', 'jacobians'.
+
+    Raises
+    ------
+    SimulationError
+        When Exudyn fails or the response diverges (non-finite or above
+        ``settings.divergence_limit``), with the time it happened.
+    """
+    import exudyn as exu
+
+    drive_samples = np.asarray(drive_samples, dtype=float)
+    model.drive.set_signal(drive_samples, OUTPUT_RATE_HZ)
+    if not model.assembled:
+        model.assemble()
+    mbs = model.mbs
+    duration = (drive_samples.size - 1) / OUTPUT_RATE_HZ
+    n_steps = int(round(duration / settings.step_s))
+    ss = exu.SimulationSettings()
+    ti = ss.timeIntegration
+    ti.startTime, ti.endTime, ti.numberOfSteps = 0.0, duration, n_steps
+    ti.verboseMode = 0
+    ti.generalizedAlpha.spectralRadius = settings.spectral_radius
+    ti.generalizedAlpha.computeInitialAccelerations = True
+    ti.newton.useModifiedNewton = settings.modified_newton
+    ti.newton.relativeTolerance = settings.relative_tolerance
+    ti.newton.absoluteTolerance = settings.absolute_tolerance
+    ti.adaptiveStep = False
+    ss.solution.file.write = False
+    ss.solution.sensors.writePeriod = 1.0 / OUTPUT_RATE_HZ
+    ss.displayStatistics = False
+    ss.displayComputationTime = False
+    bar = None
+    if progress:
+        from tqdm import tqdm
+
+        bar = tqdm(total=int(duration), unit="s", desc="exudyn", disable=None)
+        state = {"next": 1.0}
+
+        def pre_step(mbs_, t):
+            if t >= state["next"]:
+                bar.update(1)
+                state["next"] += 1.0
+            return True
+
+        mbs.SetPreStepUserFunction(pre_step)
+    t0 = time.perf_counter()
+    try:
+        mbs.SolveDynamic(ss, solverType=exu.DynamicSolverType.GeneralizedAlpha, storeSolver=True)
+    except Exception as exc:  # Exudyn raises its own error types (SolverError, RuntimeError)
+        t_fail = float(mbs.systemData.GetTime())
+        raise SimulationError(f"Exudyn time integration failed at t = {t_fail:.4f} s: {exc}") from None
+    finally:
+        if bar is not None:
+            bar.close()
+    wall = time.perf_counter() - t0
+    names = list(model.sensors)
+    out = np.empty((len(names), drive_samples.size))
+    cache = {}
+    for i, name in enumerate(names):
+        att = model.sensors[name]
+        if att.exudyn_sensor not in cache:
+            data = np.asarray(mbs.GetSensorStoredData(att.exudyn_sensor))
+            cache[att.exudyn_sensor] = data
+        data = cache[att.exudyn_sensor]
+        if data.shape[0] < drive_samples.size:
+            raise SimulationError(
+                f"sensor {name}: {data.shape[0]} samples stored, expected {drive_samples.size}")
+        out[i] = data[: drive_samples.size, 1:4] @ att.direction
+    bad = ~np.isfinite(out) | (np.abs(out) > settings.divergence_limit)
+    if bad.any():
+        k = int(np.flatnonzero(bad.any(axis=0))[0])
+        raise SimulationError(
+            f"the simulation diverged at t = {k / OUTPUT_RATE_HZ:.4f} s (sensor accelerations non-finite or above "
+            f"{settings.divergence_limit:g} m/s^2); try a smaller step")
+    solver = mbs.sys.get("dynamicSolver")
+    stats = {"wall_s": wall, "real_time_factor": duration / wall if wall > 0 else float("inf"), "steps": n_steps}
+    if solver is not None:
+        it = solver.it
+        stats.update(newton_iterations=int(it.newtonStepsCount), jacobians=int(it.newtonJacobiCount))
+    return out, stats
+
+
+# --------------------------------------------------------------------------------------- recordings
+def simulate(model, signal="white-noise", duration_s: float = 80.0, method: str = "exudyn", seed: int = 0,
+             rms_m: float | None = None, drive_rate_hz: float | None = None,
+             settings: IntegratorSettings = IntegratorSettings(), progress: bool = False) -> Recording:
+    """Simulate ``model`` on the rig and return a :class:`Recording`.
+
+    Parameters
+    ----------
+    model : exudyn_study.model.Model
+    signal : str or array_like
+        Signal name or drive samples (see :func:`prepare_drive`).
+    duration_s : float
+    method : {'exudyn', 'linear'}
+    seed : int
+    rms_m : float, optional
+    drive_rate_hz : float, optional
+        Rate of given drive samples.
+    settings : IntegratorSettings
+    progress : bool
+
+    Returns
+    -------
+    Recording
+        Accelerations of every sensor at 1000 Hz (Appendix-A names, directions,
+        positions, sensitivities), the drive at 204.8 Hz, metadata (model, damping,
+        signal, seed, method, package version).
+
+    Raises
+    ------
+    InputError, SimulationError
+    """
+    from . import __version__ as version
+    from .modal import linearize
+    from .recording import Channel
+    from .signals import resample
+
+    if method not in METHODS:
+        raise InputError(f"method {method!r}; expected one of {list(METHODS)}")
+    x = prepare_drive(signal, duration_s, rms_m, seed, drive_rate_hz)
+    if method == "exudyn":
+        acc, stats = simulate_exudyn(model, x, settings, progress=progress)
+    else:
+        t0 = time.perf_counter()
+        model.drive.set_signal(x, OUTPUT_RATE_HZ)
+        lin = linearize(model)
+        acc = simulate_linear(lin, model.drive)
+        wall = time.perf_counter() - t0
+        stats = {"wall_s": wall, "real_time_factor": (x.size - 1) / OUTPUT_RATE_HZ / wall}
+    drive_out = resample(x, OUTPUT_RATE_HZ, DRIVE_RATE_HZ)
+    channels = []
+    for i, name in enumerate(model.sensors):
+        s = model.sensors[name].sensor
+        channels.append(Channel(name, "acceleration", "m/s^2", s.direction, s.position_m, OUTPUT_RATE_HZ, acc[i],
+                                sensitivity=s.sensitivity))
+    channels.append(Channel("drive", "displacement", "m", "Z", None, DRIVE_RATE_HZ, drive_out, role="drive"))
+    meta = {k: v for k, v in model.metadata.items() if isinstance(v, (str, int, float))}
+    meta.update(
+        source="simulation", method=method, signal=signal if isinstance(signal, str) else "given",
+        seed=int(seed), duration_s=float((x.size - 1) / OUTPUT_RATE_HZ), package_version=str(version),
+        wall_s=float(stats["wall_s"]))
+    if method == "exudyn":
+        meta.update(step_s=settings.step_s, spectral_radius=settings.spectral_radius)
+    return Recording(tuple(channels), meta)
+
+
+def band_limited_rms_error(x, reference, rate_hz: float = OUTPUT_RATE_HZ, f_max_hz: float = 70.0) -> np.ndarray:
+    """Relative rms error per channel of ``x`` vs ``reference`` below ``f_max_hz`` (FFT band limit).
+
+    Both shape (n_channels, n_samples); returns shape (n_channels,).
+    """
+    x = np.atleast_2d(np.asarray(x, dtype=float))
+    r = np.atleast_2d(np.asarray(reference, dtype=float))
+    f = np.fft.rfftfreq(x.shape[1], 1.0 / rate_hz)
+    mask = f <= f_max_hz
+    ex = np.fft.rfft(x - r, axis=1)[:, mask]
+    er = np.fft.rfft(r, axis=1)[:, mask]
+    return np.sqrt(np.sum(np.abs(ex) ** 2, axis=1) / np.sum(np.abs(er) ** 2, axis=1))
