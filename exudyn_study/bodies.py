@@ -32,6 +32,23 @@ REDUCTION_CODE_VERSION = 1
 BODY_KINDS = ("chassis", "rear_foundation")
 
 
+#: Modules whose code determines a reduced body: a change in any of them changes the cache key.
+_SOURCE_MODULES = ("fe/chassis.py", "fe/assembly.py", "fe/solvers.py", "reduction.py", "flexbody.py", "materials.py")
+
+
+def _source_digest() -> str:
+    """SHA-256 over the source of the modules that build a body (geometry to FFRF terms)."""
+    import hashlib
+    from pathlib import Path
+
+    root = Path(__file__).resolve().parent
+    digest = hashlib.sha256()
+    for rel in _SOURCE_MODULES:
+        digest.update(rel.encode())
+        digest.update((root / rel).read_bytes())
+    return digest.hexdigest()
+
+
 @dataclass(frozen=True)
 class BodySpec:
     """What flexible body to build.
@@ -126,6 +143,7 @@ class BodySpec:
             "materials": {k: dataclasses.asdict(v) for k, v in MATERIALS.items()},
             "netgen": getattr(netgen, "__version__", "unknown"),
             "code": REDUCTION_CODE_VERSION,
+            "source": _source_digest(),
         }
 
 
