@@ -336,6 +336,8 @@ def build_model_from_bodies(
     formulation: str = "linear",
     rig: RigParameters = RigParameters(),
     sensors: Sequence[str] | None = None,
+    marker_nodes: int | None = 6,
+    exudyn_mesh: str = "all",
 ) -> Model:
     """Assemble a rig model from given flexible bodies (the workhorse of :func:`build_model`).
 
@@ -347,6 +349,18 @@ def build_model_from_bodies(
         interfaces; each component with its matching interfaces).
     variant, damping, bushing, formulation, rig, sensors
         As :func:`build_model`.
+    marker_nodes : int or None
+        Linear formulation: mesh nodes per interface marker (a few well-spread nodes of
+        the rigid patch give the same kinematics at a fraction of the cost,
+        :func:`exudyn_study.model.linear_body.marker_node_subset`); None: whole patches.
+    exudyn_mesh : {'all', 'used'}
+        Linear formulation: give Exudyn every mesh node ('all', the default: any node can
+        carry your own markers and sensors, by its mesh index) or only the nodes the
+        interface markers and the sensors use ('used'). Exudyn's super-element markers
+        evaluate the mesh-node coordinates from the whole mode basis, so 'used' integrates
+        several times faster (``benchmarks/bench_simulation.py``); the mesh indices then
+        differ in Exudyn (``model.bodies[b].mesh_node_map``: mesh index -> Exudyn node)
+        and there is no surface mesh for the renderer. Same linearised system.
 
     Returns
     -------
@@ -368,6 +382,12 @@ def build_model_from_bodies(
         raise InputError(f"bodies {sorted(bodies)}: expected 'chassis' or 'frame'")
     sensor_list = SENSORS if sensors is None else tuple(lookup_sensor(s) for s in sensors)
 
+    if exudyn_mesh not in ("all", "used"):
+        raise InputError(f"exudyn_mesh {exudyn_mesh!r}; expected 'all' or 'used'")
+    if exudyn_mesh == "used" and formulation != "linear":
+        raise InputError("exudyn_mesh='used' needs formulation='linear'")
+    components = {n: (None if n == "chassis" else n) for n in bodies}
+    chosen = _sensor_nodes(bodies, components, sensor_list)
     sc = exu.SystemContainer()
     mbs = sc.AddSystem()
     ground = mbs.AddObject(eii.ObjectGround(name="ground"))
@@ -380,7 +400,9 @@ def build_model_from_bodies(
         ratios[name] = zeta
         color = colors.get(name, (0.9, 0.5, 0.2, 1))
         if formulation == "linear":
-            handles[name] = add_linear_cms_body(mbs, fb.body, fb.ffrf, zeta, ground, name=name, color=color)
+            keep = [c[2] for c in chosen if c[1] == name] if exudyn_mesh == "used" else None
+            handles[name] = add_linear_cms_body(mbs, fb.body, fb.ffrf, zeta, ground, name=name, color=color,
+                                                marker_nodes=marker_nodes, mesh_nodes=keep)
         else:
             handles[name] = add_flexible_body(mbs, fb.body, fb.ffrf, zeta, name=name, color=color)
             handles[name].interface_positions_m = {
@@ -408,7 +430,7 @@ def build_model_from_bodies(
                         name=f"{comp}.{itf}", markerNumbers=[m0, m1], stiffness=k_mat.tolist(),
                         damping=d_mat.tolist(), visualization=eii.VObjectConnectorRigidBodySpringDamper(show=False)))
 
-    attachments = _attach_sensors(mbs, handles, components, sensor_list)
+    attachments = _attach_sensors(mbs, handles, chosen)
     meta = {
         "model": f"model{variant}",
         "variant": variant,
@@ -427,23 +449,19 @@ def _surface_nodes(body) -> np.ndarray:
     return np.unique(tris.ravel())
 
 
-def _attach_sensors(mbs, handles: dict, components: dict, sensor_list) -> dict:
-    """Attach each sensor to the nearest surface node of its component's body."""
-    import exudyn as exu
-    import exudyn.itemInterface as eii
-
-    out = {}
-    node_sensor: dict[tuple[str, int], int] = {}
+def _sensor_nodes(bodies: Mapping, components: dict, sensor_list) -> list:
+    """(sensor, body name, mesh node, distance) per sensor: the nearest surface node of its component."""
+    out = []
     for s in sensor_list:
         body_name = None
         for b, comp in components.items():
             if comp == s.component:
                 body_name = b
-        if body_name is None and "chassis" in handles:
+        if body_name is None and "chassis" in bodies:
             body_name = "chassis"
         if body_name is None:
             raise InputError(f"sensor {s.name!r} sits on {s.component!r}, which no body of this model carries")
-        body = handles[body_name].body
+        body = bodies[body_name].body
         if components[body_name] is None:
             candidates = np.intersect1d(body.component_nodes(s.component), _surface_nodes(body))
         else:
@@ -452,14 +470,25 @@ def _attach_sensors(mbs, handles: dict, components: dict, sensor_list) -> dict:
             raise InputError(f"sensor {s.name!r}: body {body_name!r} has no surface node on {s.component!r}")
         d = np.linalg.norm(body.node_positions_m[candidates] - np.asarray(s.position_m), axis=1)
         i = int(np.argmin(d))
-        node = int(candidates[i])
+        out.append((s, body_name, int(candidates[i]), float(d[i])))
+    return out
+
+
+def _attach_sensors(mbs, handles: dict, chosen: list) -> dict:
+    """Add one acceleration ``SensorSuperElement`` per sensor node (shared by sensors on one node)."""
+    import exudyn as exu
+    import exudyn.itemInterface as eii
+
+    out = {}
+    node_sensor: dict[tuple[str, int], int] = {}
+    for s, body_name, node, dist in chosen:
         key = (body_name, node)
         if key not in node_sensor:
+            local = handles[body_name].__dict__.get("mesh_node_map", {}).get(node, node)
             node_sensor[key] = mbs.AddSensor(eii.SensorSuperElement(
-                name=f"acc:{s.name}", bodyNumber=handles[body_name].object_number, meshNodeNumber=node,
+                name=f"acc:{s.name}", bodyNumber=handles[body_name].object_number, meshNodeNumber=int(local),
                 outputVariableType=exu.OutputVariableType.Acceleration, storeInternal=True, writeToFile=False))
-        out[s.name] = SensorAttachment(s, body_name, node, float(d[i]), _DIRECTION[s.direction].copy(),
-                                       node_sensor[key])
-        if d[i] > 0.05:
-            log.warning("sensor %s: nearest surface node of %s is %.0f mm away", s.name, s.component, 1e3 * d[i])
+        out[s.name] = SensorAttachment(s, body_name, node, dist, _DIRECTION[s.direction].copy(), node_sensor[key])
+        if dist > 0.05:
+            log.warning("sensor %s: nearest surface node of %s is %.0f mm away", s.name, s.component, 1e3 * dist)
     return out
