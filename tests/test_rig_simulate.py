@@ -103,3 +103,92 @@ def test_divergence_is_reported_with_time_and_no_file(tmp_path):
     x = prepare_drive("white-noise", 1.0, rms_m=1e-3, ramp_s=0.05)[:200]
     with pytest.raises(SimulationError, match=r"diverged at t = \d+\.\d+ s"):
         simulate_exudyn(model, x, IntegratorSettings(step_s=1e-3, spectral_radius=0.6, divergence_limit=1e-3))
+
+
+def test_marker_node_subset_keeps_the_linearised_system():
+    """A few well-spread nodes of each rigid interface patch give the same system modes."""
+    from exudyn_study import modal
+    from exudyn_study.model import build_model_from_bodies
+
+    full = build_model_from_bodies(mini_bodies(), 1, damping="constant-2", sensors=FRAME_SENSORS, marker_nodes=None)
+    fast = build_model_from_bodies(mini_bodies(), 1, damping="constant-2", sensors=FRAME_SENSORS,
+                                   exudyn_mesh="used")
+    assert len(fast.bodies["chassis"].mesh_node_map) < 60
+    a = modal.system_modes(full, max_frequency_hz=120.0)
+    b = modal.system_modes(fast, max_frequency_hz=120.0)
+    np.testing.assert_allclose(b.frequency_hz, a.frequency_hz, rtol=1e-9)
+    np.testing.assert_allclose(b.damping_ratio, a.damping_ratio, atol=1e-9)
+    np.testing.assert_allclose(np.abs(b.shapes), np.abs(a.shapes), atol=1e-8)
+
+
+def test_exudyn_reduced_converges_to_the_exact_solution(model_lin):
+    """Generalised-alpha (rho 1) on the projected linearisation: error ~ h^2, small at 1/16 ms."""
+    from exudyn_study.simulate import (
+        IntegratorSettings,
+        band_limited_rms_error,
+        prepare_drive,
+        simulate_exudyn_reduced,
+        simulate_linear,
+    )
+
+    model, lin = model_lin
+    x = prepare_drive("white-noise", 2.0, seed=4)
+    model.drive.set_signal(x, 1000.0)
+    ref = simulate_linear(lin, model.drive)
+    errs = []
+    for h in (0.5e-3, 0.125e-3):
+        y, stats = simulate_exudyn_reduced(lin, model.drive, IntegratorSettings(step_s=h))
+        errs.append(band_limited_rms_error(y, ref))
+    big = np.std(ref, axis=1) > 0.05 * np.std(ref, axis=1).max()
+    assert np.median(errs[1] / errs[0]) < 1 / 8  # second order: 16x in theory
+    assert errs[1][big].max() < 0.05
+
+
+@pytest.mark.slow
+def test_free_decay_log_decrement_matches_damped_eigenvalues(model_lin):
+    """Acceptance: free decay (Exudyn, reduced linear model) vs damped eigen-analysis, 2 % in zeta."""
+    from exudyn_study import modal
+    from exudyn_study.simulate import (
+        IntegratorSettings,
+        log_decrement_damping,
+        modal_initial_state,
+        simulate_exudyn_reduced,
+    )
+
+    model, lin = model_lin
+    modes = modal.system_modes(model, lin, max_frequency_hz=60.0)
+    for j in (0, 1, 2):
+        st = modal_initial_state(modes, j)
+        n = int(min(15.0, 20 / (2 * np.pi * modes.frequency_hz[j] * modes.damping_ratio[j])) * 1000)
+        model.drive.set_signal(np.zeros(n), 1000.0)
+        y, _ = simulate_exudyn_reduced(lin, model.drive, IntegratorSettings(step_s=0.125e-3), initial_state=st)
+        ch = int(np.argmax(np.abs(modes.shapes[:, j])))
+        zeta, f = log_decrement_damping(y[ch])
+        assert zeta == pytest.approx(modes.damping_ratio[j], rel=0.02)
+        assert f == pytest.approx(modes.frequency_hz[j], rel=1e-3)
+
+
+@pytest.mark.slow
+def test_white_noise_frf_matches_modal_frf(model_lin):
+    """Acceptance: H1 from an 80 s white-noise run vs the modal-superposition FRF, 1 dB outside antiresonances.
+
+    On the channels that carry the response (the Y channel ARFVY, 0.1 m/s^2 rms against
+    5-50 m/s^2 elsewhere, is off by several dB over 40-59 Hz; see the closing note of the
+    rig issue), and outside resonances narrower than the estimate's resolution (the
+    0.13 %-damped 29 Hz mode: half-power bandwidth 0.08 Hz, resolution 0.06 Hz: the peak
+    is 1.2 dB low in any Welch estimate of this length).
+    """
+    from exudyn_study import modal
+    from exudyn_study.simulate import estimate_frf, frf_db_error, frf_linear, prepare_drive, simulate_linear
+
+    model, lin = model_lin
+    modes = modal.system_modes(model, lin, max_frequency_hz=70.0)
+    x = prepare_drive("white-noise", 80.0, seed=2)
+    model.drive.set_signal(x, 1000.0)
+    y = simulate_linear(lin, model.drive)
+    f, h = estimate_frf(x, y)
+    narrow = modes.frequency_hz[2 * modes.damping_ratio * modes.frequency_hz < 2 * (f[1] - f[0])]
+    err = frf_db_error(h, frf_linear(lin, f)[:, 0, :], f, exclude_peaks_hz=narrow)
+    names = list(lin.sensor_names)
+    strong = [i for i, n in enumerate(names) if n not in ("ARFVY",)]
+    assert np.nanmax(err[strong]) < 1.0, dict(zip(names, np.round(err, 2), strict=True))
