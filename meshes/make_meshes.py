@@ -1,10 +1,8 @@
 """Build the committed meshes of the chassis assembly and its Model-3 components.
 
-The designs come from :func:`exudyn_study.fe.chassis.design_for_mesh` (the
-coarse size simplifies the joint hardware).  Writes Netgen ``.vol.gz`` files
-(first-order tetrahedra; the FE code makes them second order) and
-``manifest.json`` (design, mesh size, counts, second-order DOF, SHA-256 of each
-file) into this directory, and prints element/node/DOF counts and times.
+Writes Netgen ``.vol.gz`` files (first-order tetrahedra; the FE code makes them
+second order) and ``manifest.json`` (design, mesh size, counts, SHA-256 of each
+file) into this directory, and prints element/node counts and times.
 
 Usage::
 
@@ -25,8 +23,8 @@ from pathlib import Path
 from exudyn_study.fe.chassis import (
     COMPONENTS,
     MESH_SIZES,
+    ChassisDesign,
     chassis_geometry,
-    design_for_mesh,
     rear_foundation_geometry,
 )
 
@@ -37,9 +35,9 @@ def mesh_jobs(size: str):
     """(file stem, geometry factory, design) for every mesh to build."""
     jobs = []
     for jm in ("simple", "detailed"):
-        design = design_for_mesh(size, joint_model=jm)
+        design = ChassisDesign(joint_model=jm)
         jobs.append((f"assembly_{jm}_{size}", lambda d=design: chassis_geometry(d), design, None))
-    design = design_for_mesh(size)  # Model 3 bodies follow the Model-1 procedure (thesis Sect. 4.5)
+    design = ChassisDesign()  # Model 3 bodies follow the Model-1 procedure (thesis Sect. 4.5)
     for comp in COMPONENTS:
         jobs.append((f"{comp}_{size}", lambda c=comp: chassis_geometry(design, c), design, comp))
     jobs.append((f"rear_foundation_{size}", rear_foundation_geometry, None, "rear_foundation"))
@@ -67,9 +65,6 @@ def main(argv=None) -> None:
         mesh.Save(tmp)
         os.replace(tmp, path)
         nv, ne = len(mesh.Points()), mesh.ne
-        import ngsolve
-
-        ndof = ngsolve.VectorH1(ngsolve.Mesh(mesh), order=2).ndof
         digest = hashlib.sha256(path.read_bytes()).hexdigest()
         manifest[path.name] = {
             "component": comp,
@@ -78,11 +73,9 @@ def main(argv=None) -> None:
             "design": None if design is None else dataclasses.asdict(design),
             "elements": ne,
             "vertices": nv,
-            "dof_order2": ndof,
             "sha256": digest,
         }
-        print(f"{path.name:36s} {ne:7d} tets {nv:6d} vertices {ndof:7d} DOF (order 2)"
-              f"  {path.stat().st_size / 1e6:5.2f} MB"
+        print(f"{path.name:36s} {ne:7d} tets {nv:6d} vertices  {path.stat().st_size / 1e6:5.2f} MB"
               f"  {dt:5.1f} s")
     manifest_path.write_text(json.dumps(manifest, indent=1, sort_keys=True) + "\n")
 

@@ -7,6 +7,7 @@ metadata; meshing from scratch is in the ``slow`` tests.
 
 from __future__ import annotations
 
+import dataclasses
 import json
 from pathlib import Path
 
@@ -21,7 +22,6 @@ from exudyn_study.fe.chassis import (  # noqa: E402
     MESH_SIZES,
     ChassisDesign,
     chassis_geometry,
-    design_for_mesh,
     rear_foundation_geometry,
 )
 from exudyn_study.materials import MATERIALS  # noqa: E402
@@ -52,12 +52,11 @@ def _load(stem: str):
 
 
 def _geometry(stem: str):
-    """Geometry of a committed (coarse) mesh."""
     if stem.startswith("assembly_"):
-        return chassis_geometry(design_for_mesh("coarse", joint_model=stem.split("_")[1]))
+        return chassis_geometry(ChassisDesign(joint_model=stem.split("_")[1]))
     if stem == "rear_foundation":
         return rear_foundation_geometry()
-    return chassis_geometry(design_for_mesh("coarse"), stem)
+    return chassis_geometry(ChassisDesign(), stem)
 
 
 STEMS = ["assembly_simple", "assembly_detailed", *COMPONENTS, "rear_foundation"]
@@ -187,47 +186,15 @@ def test_committed_meshes_are_current():
             continue
         design = ChassisDesign(**{
             k: tuple(v) if isinstance(v, list) else v for k, v in entry["design"].items()})
-        current = design_for_mesh("coarse", joint_model=design.joint_model)
+        current = dataclasses.replace(ChassisDesign(), joint_model=design.joint_model)
         assert design == current, f"{name} was built from another design; rebuild the meshes"
         assert entry["maxh_m"] == MESH_SIZES["coarse"], name
-
-
-def test_design_for_mesh():
-    assert design_for_mesh("production") == ChassisDesign()
-    assert design_for_mesh(0.08, joint_model="detailed") == ChassisDesign(joint_model="detailed")
-    coarse = design_for_mesh("coarse", joint_model="detailed", water_mass_per_tank_kg=100.0)
-    assert coarse.joint_detail == "coarse" and coarse.joint_model == "detailed"
-    assert coarse.water_mass_per_tank_kg == 100.0
-    assert ChassisDesign().joint_detail == "full"
-    for bad in ("fine", 0.0, -1.0, float("nan")):
-        with pytest.raises(InputError, match="mesh_size"):
-            design_for_mesh(bad)
-    with pytest.raises(InputError, match="joint_detail"):
-        ChassisDesign(joint_detail="medium")
-
-
-@pytest.mark.parametrize("joint_model", ["simple", "detailed"])
-def test_coarse_hardware_has_full_areas(joint_model):
-    """Coarse joint hardware: same parts and the same volume (equal-area squares)."""
-    full = chassis_geometry(design_for_mesh("production", joint_model=joint_model))
-    coarse = chassis_geometry(design_for_mesh("coarse", joint_model=joint_model))
-    assert {p.region for p in full.parts} == {p.region for p in coarse.parts}
-    for region, vol in full.volumes_m3.items():
-        # hole cut-outs are equal-area squares too: every region keeps its volume
-        assert coarse.volumes_m3[region] == pytest.approx(vol, rel=1e-6), region
-    assert coarse.segments_per_edge < full.segments_per_edge == 1.0
-
-
-def test_coarse_meshes_are_small():
-    for stem, limit in (("assembly_simple", 70_000), ("assembly_detailed", 160_000)):
-        entry = json.loads((MESH_DIR / "manifest.json").read_text())[f"{stem}_coarse.vol.gz"]
-        assert entry["dof_order2"] <= limit, (stem, entry["dof_order2"])
 
 
 @pytest.mark.slow
 @pytest.mark.parametrize("joint_model", ["simple", "detailed"])
 def test_assembly_meshes_from_scratch(joint_model):
-    geo = chassis_geometry(design_for_mesh("coarse", joint_model=joint_model))
+    geo = chassis_geometry(ChassisDesign(joint_model=joint_model))
     mesh = ngs.Mesh(geo.generate_mesh(MESH_SIZES["coarse"]))
     assert set(mesh.GetMaterials()) == {p.region for p in geo.parts}
     assert _mesh_mass(geo, mesh) == pytest.approx(geo.expected_mass_kg(), rel=MASS_RTOL)

@@ -73,27 +73,17 @@ __all__ = [
     "rear_foundation_geometry",
     "COMPONENTS",
     "JOINT_MODELS",
-    "JOINT_DETAILS",
     "MESH_SIZES",
-    "COARSE_DESIGN",
-    "design_for_mesh",
 ]
 
-#: Global mesh sizes (``maxh`` in m) for :meth:`ChassisGeometry.generate_mesh`,
-#: to be used with the design of :func:`design_for_mesh` (``"coarse"`` also
-#: simplifies the joint hardware and relaxes Netgen's edge refinement; see
-#: :attr:`ChassisDesign.joint_detail`).  Measured second-order sizes (3 DOF per
-#: node) are in ``meshes/README.md``: production ~160 k DOF (simple joints) /
-#: ~260 k DOF (detailed joints), dominated by the refinement around the 56 round
-#: bolts; coarse ~59 k DOF (simple) / ~142 k DOF (detailed).
-MESH_SIZES = MappingProxyType({"coarse": 0.20, "production": 0.12})
-
-#: Design overrides of the coarse variant (see :func:`design_for_mesh`).
-COARSE_DESIGN = MappingProxyType({
-    "joint_detail": "coarse",
-    "mesh_segments_per_edge": 0.05,
-    "joint_maxh_m": 0.045,
-})
+#: Global mesh sizes (``maxh`` in m) for :meth:`ChassisGeometry.generate_mesh`.
+#: Measured (second-order, 3 DOF per node, 2 shared cores): assembly with simple
+#: joints ~160 k DOF, detailed joints ~260 k DOF at 0.12 m; 0.18 m still gives
+#: ~146 k DOF (simple) because the refinement around the 56 bolts dominates, and
+#: 0.25 m fails to mesh the bolt circles.  So both sizes are 0.12 m for now (the
+#: committed test meshes); the Model-3 component meshes are the small fixtures
+#: (a mudguard bracket ~150-220 vertices, a tank ~1.4 k, the frame ~5 k).
+MESH_SIZES = MappingProxyType({"coarse": 0.12, "production": 0.12})
 
 #: Netgen mesh grading: the element size may grow by this factor per element away
 #: from small features (joint hardware); Netgen's default 0.3 spreads the bolt
@@ -109,13 +99,7 @@ COMPONENTS = ("frame", "tank_left", "tank_right", "bracket_left", "bracket_right
 #: Bolted-joint representations: Model 1 and Model 2 of the thesis.
 JOINT_MODELS = ("simple", "detailed")
 
-#: Geometric detail of the joint hardware (see :attr:`ChassisDesign.joint_detail`).
-JOINT_DETAILS = ("full", "coarse")
-
 _SIDES = {"left": -1.0, "right": 1.0}
-
-# edge / diameter of the square with the area of a circle: sqrt(pi) / 2
-_SQUARE_EQUIV = math.sqrt(math.pi) / 2
 
 
 # --------------------------------------------------------------------------- design
@@ -232,41 +216,10 @@ class ChassisDesign:
         Local mesh size of the rubber pad.
     bracket_maxh_m : float
         Local mesh size of tank-bracket and mudguard-bracket parts.
-    joint_detail : str
-        Geometric detail of the joint hardware, driven by the mesh resolution
-        (use :func:`design_for_mesh` rather than setting it by hand):
-        ``"full"`` (production) gives round hardware: connector cylinders,
-        round shanks, washers and contact annuli, round bolt holes.
-        ``"coarse"`` (test meshes) keeps every bolt of both joint models at
-        its position, with the same parts, materials and gap, but replaces each
-        round cross-section by a square of the same area (edge
-        ``diameter * sqrt(pi) / 2``; annuli become square frames of the same
-        area).  Equal area keeps the axial stiffness ``EA/L`` and the shear
-        stiffness ``GA/L`` of every connector, shank, washer and contact patch,
-        and the hardware mass; the second moment of area changes by
-        ``pi/3 = +4.7 %`` for a solid section, which is immaterial for the
-        10 mm long connectors (their bending and shear compliance are orders
-        of magnitude below the plates' local compliance around the bolts),
-        and the joint's bending stiffness as a bolt group, ``sum(A r^2)``, is
-        unchanged because the bolt positions are.  Without curved faces Netgen
-        has no curvature refinement at the 56 bolts, which is what otherwise
-        fixes the DOF count whatever the global ``maxh``.  One equivalent
-        connector per 2 x 2 bolt group was rejected: a single section cannot
-        carry both the group's axial stiffness and its ``A r^2`` bending
-        stiffness about both axes within the clamped plates.
-    mesh_segments_per_edge : float
-        Netgen ``segmentsperedge``: the element size along a geometry edge is
-        at most the edge length divided by this.  1 (Netgen's default,
-        production) refines to the wall thickness at every short edge of the
-        thin walls (plate ends, connector and washer edges) and grades out
-        from there; the coarse variant uses 0.05, so only the global and the
-        local sizes (``joint_maxh_m`` ...) limit the elements.
     """
 
     joint_model: str = "simple"
     water_mass_per_tank_kg: float = 222.0
-    joint_detail: str = "full"
-    mesh_segments_per_edge: float = 1.0
     # side members
     side_member_front_x_m: float = -0.52
     side_member_rear_x_m: float = 2.60
@@ -358,15 +311,6 @@ class ChassisDesign:
             raise InputError(
                 f"joint_model = {self.joint_model!r}; expected one of {list(JOINT_MODELS)}"
             )
-        if self.joint_detail not in JOINT_DETAILS:
-            raise InputError(
-                f"joint_detail = {self.joint_detail!r}; expected one of {list(JOINT_DETAILS)}"
-            )
-        spe = self.mesh_segments_per_edge
-        if not (isinstance(spe, (int, float)) and math.isfinite(spe) and spe > 0):
-            raise InputError(
-                f"mesh_segments_per_edge = {spe!r}; expected a positive number"
-            )
         if not (math.isfinite(self.water_mass_per_tank_kg) and self.water_mass_per_tank_kg >= 0):
             raise InputError(
                 f"water_mass_per_tank_kg = {self.water_mass_per_tank_kg!r}; "
@@ -426,45 +370,6 @@ class ChassisDesign:
                 f"tank_y_m = {self.tank_y_m!r}; the tank must clear the bracket plate "
                 f"(|y| > {self.side_member_web_y_m + self.joint_gap_m:.3f} + plate thickness)"
             )
-
-
-def design_for_mesh(mesh_size, **design_kwargs) -> ChassisDesign:
-    """Return the :class:`ChassisDesign` that goes with a mesh size.
-
-    Parameters
-    ----------
-    mesh_size : str or float
-        ``"coarse"``: the test variant (square joint hardware of equal areas,
-        relaxed edge refinement, coarser joint hardware mesh; the overrides in
-        :data:`COARSE_DESIGN`), meshed with ``MESH_SIZES["coarse"]``.
-        ``"production"`` or an explicit ``maxh`` in m: the full-detail design
-        (``ChassisDesign`` defaults).
-    **design_kwargs
-        Any other :class:`ChassisDesign` fields (``joint_model``,
-        ``water_mass_per_tank_kg`` ...).  They take precedence over the coarse
-        overrides.
-
-    Returns
-    -------
-    ChassisDesign
-
-    Raises
-    ------
-    InputError
-        For an unknown mesh size name or a non-positive size.
-    """
-    if isinstance(mesh_size, str):
-        if mesh_size not in MESH_SIZES:
-            raise InputError(f"mesh_size = {mesh_size!r}; expected one of {list(MESH_SIZES)} "
-                             "or a size in m")
-        coarse = mesh_size == "coarse"
-    elif isinstance(mesh_size, (int, float)) and math.isfinite(mesh_size) and mesh_size > 0:
-        coarse = False
-    else:
-        raise InputError(f"mesh_size = {mesh_size!r}; expected a name or a positive size in m")
-    kwargs = dict(COARSE_DESIGN) if coarse else {}
-    kwargs.update(design_kwargs)
-    return ChassisDesign(**kwargs)
 
 
 # --------------------------------------------------------------------------- results
@@ -547,9 +452,6 @@ class ChassisGeometry:
         Exact (CAD) volume of each region in m^3.
     component : str or None
         The Model-3 component, or None for the whole assembly.
-    segments_per_edge : float
-        Netgen ``segmentsperedge`` used by :meth:`generate_mesh` (from
-        :attr:`ChassisDesign.mesh_segments_per_edge`).
     """
 
     geometry: "netgen.occ.OCCGeometry"
@@ -557,7 +459,6 @@ class ChassisGeometry:
     interfaces: tuple[InterfaceSpec, ...]
     volumes_m3: Mapping[str, float] = field(default_factory=dict)
     component: str | None = None
-    segments_per_edge: float = 1.0
 
     def generate_mesh(self, maxh: float, grading: float = MESH_GRADING) -> "netgen.meshing.Mesh":
         """Generate the first-order tetrahedral volume mesh.
@@ -588,7 +489,7 @@ class ChassisGeometry:
             raise InputError(f"grading = {grading!r}; expected a number in (0, 1]")
         return self.geometry.GenerateMesh(
             maxh=float(maxh), grading=float(grading), closeedgefac=None,
-            curvaturesafety=_CURVATURE_SAFETY, segmentsperedge=float(self.segments_per_edge))
+            curvaturesafety=_CURVATURE_SAFETY)
 
     def expected_mass_kg(self, component: str | None = None) -> float:
         """Exact mass in kg (CAD volumes times density, plus smeared mass).
@@ -639,18 +540,6 @@ class _Builder:
         """Cylinder along +y starting at y0."""
         occ = self.occ
         return occ.Cylinder(occ.Pnt(x, y0, z), occ.Y, r=radius, h=length)
-
-    def ypost(self, x, y0, z, diameter, length):
-        """Bolt-hardware prism along +y starting at y0, centred on (x, z).
-
-        ``joint_detail == "full"``: a cylinder of the given diameter.
-        ``joint_detail == "coarse"``: a square prism of the same cross-section
-        area (edge ``diameter * sqrt(pi) / 2``), so no curved faces.
-        """
-        if self.d.joint_detail == "full":
-            return self.ycyl(x, y0, z, diameter / 2, length)
-        a = diameter * _SQUARE_EQUIV / 2
-        return self.box((x - a, x + a), (y0, y0 + length), (z - a, z + a))
 
     @staticmethod
     def yrange(sign, a, b):
@@ -712,14 +601,14 @@ class _Builder:
             if d.joint_model == "simple":
                 a, b = face_y, face_y + direction * g
                 y0 = min(sign * a, sign * b)
-                c = self.ypost(xb, y0, zb, d.connector_diameter_m, g)
+                c = self.ycyl(xb, y0, zb, d.connector_diameter_m / 2, g)
                 self.add(c, "joint_connectors", "frame", "steel", d.joint_maxh_m)
             else:
                 rb = d.bolt_diameter_m / 2
                 # contact annulus in the gap
                 a, b = face_y, face_y + direction * g
                 y0 = min(sign * a, sign * b)
-                ring = self.ypost(xb, y0, zb, d.clamp_diameter_m, g) - self.ypost(xb, y0, zb, 2 * rb, g)
+                ring = self.ycyl(xb, y0, zb, d.clamp_diameter_m / 2, g) - self.ycyl(xb, y0, zb, rb, g)
                 self.add(ring, "joint_contact", "frame", "steel", d.joint_maxh_m)
                 # washers on both outer faces
                 tw = d.washer_thickness_m
@@ -728,14 +617,14 @@ class _Builder:
                 for y_face, dirn in ((outer_comp, direction), (outer_frame, -direction)):
                     a, b = y_face, y_face + dirn * tw
                     y0 = min(sign * a, sign * b)
-                    w = self.ypost(xb, y0, zb, d.washer_diameter_m, tw) - self.ypost(xb, y0, zb, 2 * rb, tw)
+                    w = self.ycyl(xb, y0, zb, d.washer_diameter_m / 2, tw) - self.ycyl(xb, y0, zb, rb, tw)
                     self.add(w, "joint_washers", "frame", "steel", d.joint_maxh_m)
                 # shank from washer to washer
                 a = outer_frame - direction * tw
                 b = outer_comp + direction * tw
                 y0 = min(sign * a, sign * b)
-                shank = self.ypost(xb, y0, zb, 2 * rb, abs(b - a))
-                self.shanks.append(self.ypost(xb, y0, zb, 2 * rb, abs(b - a)))
+                shank = self.ycyl(xb, y0, zb, rb, abs(b - a))
+                self.shanks.append(self.ycyl(xb, y0, zb, rb, abs(b - a)))
                 self.add(shank, "joint_bolts", "frame", "steel", d.joint_maxh_m)
 
     def component_interface(self, name, sign, x_c, z_c, face_y, direction):
@@ -966,7 +855,6 @@ def _build(design: ChassisDesign, component: str | None) -> ChassisGeometry:
         interfaces=ifaces,
         volumes_m3=MappingProxyType(dict(B.volumes)),
         component=component,
-        segments_per_edge=d.mesh_segments_per_edge,
     )
 
 
