@@ -17,6 +17,7 @@ from __future__ import annotations
 import argparse
 import json
 import sys
+import time
 from pathlib import Path
 
 import numpy as np
@@ -38,9 +39,13 @@ def main(argv=None) -> int:
     for joint_model in ("simple", "detailed"):
         spec = BodySpec(joint_model=joint_model, mesh_size=mesh)
         data = flexible_body(spec)
+        print(f"{spec.name}: reduced body {'from cache' if data.from_cache else 'built'} "
+              f"({data.timings_s['total']:.1f} s); solving the full FE model with patches ...", flush=True)
+        t0 = time.perf_counter()
         fe_model, interfaces = fe_model_and_interfaces(spec)
         n_full = int(np.sum(data.body.frequencies_hz < 120.0)) + 2
         full = patched_full_model_frequencies(fe_model, interfaces, n_modes=n_full)
+        print(f"  full model: {fe_model.n_dof} DOF, {n_full} modes in {time.perf_counter() - t0:.1f} s", flush=True)
         results[joint_model] = {
             "dof": fe_model.n_dof,
             "mass_kg": data.body.total_mass_kg,
