@@ -1,0 +1,184 @@
+"""Built-in catalogue entries (registered on import of :mod:`exudyn_study.physics`).
+
+- ``added_mass``: a point mass rigidly attached at a sensor node or an interface patch;
+- ``drive_linkage_compliance``: compliance (and mass) between the piston and the linkage,
+  the thesis's unexplained ~28 Hz resonance of the connection between cylinder and
+  chassis (Section 7.1).
+"""
+
+from __future__ import annotations
+
+import numpy as np
+
+from ..errors import InputError
+from .catalogue import Parameter, PhysicsEntry, register
+
+__all__ = ["ADDED_MASS", "DRIVE_LINKAGE_COMPLIANCE", "location_point"]
+
+_EXPECTED = ("a sensor name of the model (e.g. 'ARFVZ') or an interface 'body.interface' "
+             "(e.g. 'chassis.front_strut')")
+
+
+def _find_interface(model, location: str):
+    if location in model.interfaces:
+        return location
+    hits = [k for k in model.interfaces if k.split(".", 1)[1] == location]
+    return hits[0] if len(hits) == 1 else None
+
+
+def _check_point_location(model, location) -> str:
+    if isinstance(location, str):
+        if location in model.sensors:
+            return location
+        key = _find_interface(model, location)
+        if key is not None:
+            return key
+    raise InputError(f"location {location!r}: expected {_EXPECTED}; this model has sensors "
+                     f"{list(model.sensors)} "
+                     f"and interfaces {sorted(model.interfaces)}")
+
+
+def location_point(model, location: str) -> tuple[int, np.ndarray]:
+    """(position marker, global position in m) of a sensor node or an interface patch centre.
+
+    Parameters
+    ----------
+    model : exudyn_study.model.Model
+    location : str
+        A sensor name (its mesh node) or an interface key ``'body.interface'``.
+
+    Returns
+    -------
+    marker : int
+        ``MarkerSuperElementPosition`` at the sensor's node, or the interface's rigid marker.
+    position_m : ndarray, shape (3,)
+    """
+    location = _check_point_location(model, location)
+    if location in model.sensors:
+        att = model.sensors[location]
+        handle = model.bodies[att.body]
+        local = handle.__dict__.get("mesh_node_map", {}).get(att.node, att.node)
+        pos = np.asarray(handle.body.node_positions_m[att.node], dtype=float) + np.asarray(handle.position_m)
+        return handle.node_marker(model.mbs, int(local)), pos
+    itf = model.interfaces[location]
+    return itf.marker, np.asarray(itf.position_m, dtype=float)
+
+
+def _mass_point(mbs, name: str, position, mass_kg: float) -> tuple[int, int, int]:
+    """Add a point mass at ``position``; return (node, object, position marker)."""
+    import exudyn.itemInterface as eii
+
+    node = mbs.AddNode(eii.NodePoint(name=f"{name}:node", referenceCoordinates=[float(v) for v in position]))
+    obj = mbs.AddObject(eii.ObjectMassPoint(name=name, nodeNumber=node, mass=float(mass_kg),
+                                            visualization=eii.VObjectMassPoint(show=False)))
+    marker = mbs.AddMarker(eii.MarkerNodePosition(nodeNumber=node))
+    return int(node), int(obj), int(marker)
+
+
+def _add_mass(model, location: str, params: dict) -> dict:
+    import exudyn.itemInterface as eii
+
+    mbs = model.mbs
+    marker, pos = location_point(model, location)
+    tag = f"added_mass:{location}"
+    node, obj, m_mass = _mass_point(mbs, tag, pos, params["mass_kg"])
+    joint = mbs.AddObject(eii.ObjectJointSpherical(name=f"{tag}:joint", markerNumbers=[marker, m_mass],
+                                                   visualization=eii.VObjectJointSpherical(show=False)))
+    return {"node": node, "mass_point": obj, "marker": m_mass, "joint": int(joint),
+            "body_marker": int(marker)}
+
+
+ADDED_MASS = register(PhysicsEntry(
+    name="added_mass",
+    doc="""A point mass rigidly attached at a sensor node or an interface patch.
+
+Physics: mass the nominal model does not carry (a sensor cube and cable clamp, a bracket,
+fluid, a tool) or carries elsewhere. The point mass has no rotary inertia and is joined
+to the location by a spherical joint (three translations rigid).
+
+Signature: every mode that moves the location drops in frequency, by about
+``df / f = -m |phi_loc|^2 / (2 phi^T M phi)`` for a small mass (Rayleigh); modes with a node
+there do not move; the low-frequency (rigid drive) response is unchanged; the sensors at
+and near the location see it most. The linearised system mass grows by exactly ``m`` times
+the squared motion of the location.
+""",
+    parameters=(Parameter("mass_kg", "kg", 0.01, 500.0, 5.0, "the added point mass"),),
+    add_items=_add_mass,
+    locations=_EXPECTED,
+    check_location=_check_point_location,
+))
+
+
+def _check_linkage_location(model, location):
+    if location not in (None, "drive_linkage", "piston_linkage"):
+        raise InputError(f"drive_linkage_compliance: location {location!r}; expected None or 'drive_linkage' "
+                         "(the rig has one drive linkage)")
+    if "piston_linkage" not in model.rig.joints:
+        raise InputError("drive_linkage_compliance: the model's rig has no 'piston_linkage' joint")
+    return "drive_linkage"
+
+
+def _add_linkage_compliance(model, location, params: dict) -> dict:
+    import exudyn.itemInterface as eii
+
+    mbs = model.mbs
+    joint = model.rig.joints["piston_linkage"]
+    m_piston, m_linkage = (int(m) for m in mbs.GetObject(joint)["markerNumbers"])
+    # the pin stays rigid along x; z (the drive direction) becomes the spring
+    mbs.SetObjectParameter(joint, "constrainedAxes", [1, 0, 0, 0, 0, 0])
+    items = {"piston_linkage": int(joint)}
+    target = m_linkage
+    if params["mass_kg"] > 0:
+        pin = _marker_position(model, m_linkage)
+        node, obj, m_mass = _mass_point(mbs, "drive_linkage:mass", pin, params["mass_kg"])
+        items.update(mass_node=node, mass_point=obj)
+        items["mass_joint"] = int(mbs.AddObject(eii.ObjectJointSpherical(
+            name="drive_linkage:mass_joint", markerNumbers=[m_linkage, m_mass],
+            visualization=eii.VObjectJointSpherical(show=False))))
+        target = m_mass
+    k, c = params["stiffness_n_per_m"], params["damping_n_s_per_m"]
+    items["spring"] = int(mbs.AddObject(eii.ObjectConnectorCartesianSpringDamper(
+        name="drive_linkage:spring", markerNumbers=[m_piston, target], stiffness=[0.0, 0.0, k],
+        damping=[0.0, 0.0, c], visualization=eii.VObjectConnectorCartesianSpringDamper(show=False))))
+    return items
+
+
+def _marker_position(model, marker: int) -> np.ndarray:
+    """Global reference position of a ``MarkerBodyRigid`` on a rigid body (before assembly)."""
+    mbs = model.mbs
+    m = mbs.GetMarker(marker)
+    body = mbs.GetObject(int(m["bodyNumber"]))
+    node = mbs.GetNode(int(body["nodeNumber"]))
+    ref = np.asarray(node["referenceCoordinates"][:3], dtype=float)
+    return ref + np.asarray(m["localPosition"], dtype=float)
+
+
+DRIVE_LINKAGE_COMPLIANCE = register(PhysicsEntry(
+    name="drive_linkage_compliance",
+    doc="""Compliance and mass in the drive linkage between the piston and the lever.
+
+Physics: the nominal rig joins the piston rod to the linkage by a rigid pin. In the truth,
+the rod end, clevis and bearing are a spring (``stiffness_n_per_m``, with viscous
+``damping_n_s_per_m``) along the drive direction (z), and the lever carries an extra mass
+at the pin (``mass_kg``; zero: none). The pin stays rigid along x. This is the thesis's
+suspect for the ~28 Hz resonance "in the connection between the hydraulic cylinder and the
+chassis assembly" that no model contained (Section 7.1, Figure 20) and for the drive
+drop-off at 26 Hz (Section 5.1).
+
+Signature: one additional system mode in which the linkage, the struts and the frame front
+move together in z against the piston (``f ~ sqrt(k / m_eff) / 2 pi``, ``m_eff`` the mass
+the pin carries: linkage, struts, ``mass_kg`` and the frame front's modal mass); the FRF
+from the drive to every frame sensor, the front attachments ``ARFVZ``/``ARFHZ`` most, shows a
+resonance there (preceded by an antiresonance at the drive point), and below it the frame
+still follows the drive statically (the spring carries the static load).
+""",
+    parameters=(
+        Parameter("stiffness_n_per_m", "N/m", 1e5, 1e10, 2e7,
+                  "axial stiffness of the piston-linkage connection"),
+        Parameter("damping_n_s_per_m", "N s/m", 0.0, 1e6, 2e3, "viscous damping of that connection"),
+        Parameter("mass_kg", "kg", 0.0, 500.0, 20.0, "extra mass of the linkage at the pin"),
+    ),
+    add_items=_add_linkage_compliance,
+    locations="None or 'drive_linkage' (the rig has one drive linkage)",
+    check_location=_check_linkage_location,
+))
