@@ -17,9 +17,12 @@ def configure(parser: argparse.ArgumentParser) -> None:
     parser.add_argument("--duration", type=float, default=80.0, help="duration in s (named signals)")
     parser.add_argument("--rms", type=float, default=None, help="drive rms in m (named signals)")
     parser.add_argument("--seed", type=int, default=0, help="random seed of the drive signal")
-    parser.add_argument("--method", default="exudyn", choices=("exudyn", "linear"),
-                        help="exudyn: time integration; linear: exact discretisation of the linearised model")
-    parser.add_argument("--step", type=float, default=None, help="Exudyn time step in s (default 0.25 ms)")
+    parser.add_argument("--method", default="exudyn", choices=("exudyn", "exudyn-reduced", "linear"),
+                        help="exudyn: time integration of the full model; exudyn-reduced: Exudyn time integration "
+                             "of the constraint-projected linearisation; linear: exact discretisation of the "
+                             "linearised model")
+    parser.add_argument("--step", type=float, default=None,
+                        help="Exudyn time step in s (default 0.25 ms; exudyn-reduced 1/32 ms)")
     parser.add_argument("--mesh", default="coarse", help="mesh size: coarse, production or a size in m")
     parser.add_argument("--bushing", action="store_true", help="model 3: bushings instead of fixed joints")
     parser.add_argument("--cache-dir", default=None, help="flexible-body cache directory")
@@ -43,9 +46,11 @@ def run(args: argparse.Namespace) -> int:
     if Path(args.signal).suffix.lower() in (".h5", ".hdf5", ".uff", ".unv"):
         drive = read_recording(args.signal).drive
         signal, rate = drive.data, drive.sample_rate_hz
-    settings = IntegratorSettings() if args.step is None else IntegratorSettings(step_s=args.step)
+    default_step = 1.0 / 32e3 if args.method == "exudyn-reduced" else IntegratorSettings().step_s
+    settings = IntegratorSettings(step_s=default_step if args.step is None else args.step)
     model = build_model(args.model, damping=parse_damping(args.damping), mesh_size=parse_mesh(args.mesh),
-                        bushing=BushingParameters() if args.bushing else None, cache_dir=args.cache_dir)
+                        bushing=BushingParameters() if args.bushing else None, cache_dir=args.cache_dir,
+                        exudyn_mesh="used")
     rec = simulate(model, signal, args.duration, method=args.method, seed=args.seed, rms_m=args.rms,
                    drive_rate_hz=rate, settings=settings, progress=True)
     write_recording(rec, out)

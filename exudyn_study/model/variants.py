@@ -283,6 +283,8 @@ def build_model(
     rig: RigParameters = RigParameters(),
     sensors: Sequence[str] | None = None,
     progress: Callable | None = None,
+    marker_nodes: int | None = 6,
+    exudyn_mesh: str = "all",
 ) -> Model:
     """Build a thesis model variant on the rig.
 
@@ -306,6 +308,9 @@ def build_model(
         Sensor names to attach (default: all 42 of Appendix A).
     progress : callable, optional
         Called with a short text before each expensive step.
+    marker_nodes, exudyn_mesh
+        See :func:`build_model_from_bodies` (``exudyn_mesh='used'``: much faster Exudyn
+        time integration, same linearised system).
 
     Returns
     -------
@@ -323,7 +328,7 @@ def build_model(
     data = model_bodies(variant, mesh_size, cache_dir, progress)
     model = build_model_from_bodies(
         data, variant=variant, damping=damping, bushing=bushing, formulation=formulation, rig=rig,
-        sensors=sensors)
+        sensors=sensors, marker_nodes=marker_nodes, exudyn_mesh=exudyn_mesh)
     model.metadata["mesh"] = str(mesh_size)
     return model
 

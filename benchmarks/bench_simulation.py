@@ -1,0 +1,157 @@
+"""Benchmark: time simulation of the rig models (issue 3), speed and accuracy in one run.
+
+``python benchmarks/bench_simulation.py [--models mini model1] [--exudyn-seconds 5] [--duration 80]``
+
+Per model (``mini``: the test frame of ``tests/rig_fixtures.py``; ``model1``/``model2``/
+``model3``: coarse chassis from the body cache):
+
+1. **Linear path** (exact discretisation of the linearised system): an 80 s white-noise
+   run, simulated seconds per wall and per CPU second (target >= 100x real time).
+2. **Exudyn, full model** (rig joints, linear CMS bodies, generalised-alpha, h = 1 ms,
+   rho 1): ``--exudyn-seconds`` of the same drive, before (whole interface patches in
+   the rigid markers, all mesh nodes) and after (a few patch nodes per marker, used mesh
+   nodes only); speed and band-limited (< 70 Hz) rms error per channel against the exact
+   linear solution (target: 3 %, at least real time).
+3. **Exudyn, reduced** (generalised-alpha on the constraint-projected linearisation,
+   ``method='exudyn-reduced'``): the full 80 s at h = 1/32 ms; speed and accuracy.
+4. **Free decay** of the first three modes (exact and Exudyn-reduced): log-decrement damping
+   vs the damped eigenvalue (target: two modes within 2 %).
+5. **FRF**: H1 of the 80 s linear run vs the modal-superposition FRF, max dB error per
+   channel in 3.5-59 Hz outside antiresonances (target 1 dB), also without resonances
+   narrower than the resolution.
+
+CPU time is printed next to wall time: the machine is shared (load average in the header).
+"""
+
+from __future__ import annotations
+
+import argparse
+import os
+import sys
+import time
+from pathlib import Path
+
+import numpy as np
+
+sys.path.insert(0, str(Path(__file__).resolve().parents[1] / "tests"))
+
+
+def build(name: str, **kw):
+    from exudyn_study.model import build_model, build_model_from_bodies
+
+    if name == "mini":
+        from rig_fixtures import FRAME_SENSORS, mini_bodies
+
+        return build_model_from_bodies(mini_bodies(), 1, damping="constant-2", sensors=FRAME_SENSORS, **kw)
+    return build_model(int(name[-1]), damping="adams-default", mesh_size="coarse", **kw)
+
+
+def fmt(e) -> str:
+    e = np.asarray(e)
+    return f"max {100 * np.nanmax(e):.1f} %, median {100 * np.nanmedian(e):.1f} %"
+
+
+def bench(name: str, args) -> dict:
+    from exudyn_study import modal
+    from exudyn_study.simulate import (
+        IntegratorSettings,
+        band_limited_rms_error,
+        estimate_frf,
+        frf_db_error,
+        frf_linear,
+        log_decrement_damping,
+        modal_initial_state,
+        prepare_drive,
+        simulate_exudyn,
+        simulate_exudyn_reduced,
+        simulate_linear,
+    )
+
+    res = {}
+    print(f"\n=== {name} ===", flush=True)
+    t0 = time.perf_counter()
+    model = build(name, exudyn_mesh="used")
+    model.assemble()
+    lin = modal.linearize(model)
+    modes = modal.system_modes(model, lin, max_frequency_hz=100.0)
+    print(f"build + linearise: {time.perf_counter() - t0:.1f} s; {lin.size} independent coordinates, "
+          f"{len(model.sensors)} sensors; modes < 100 Hz: "
+          + ", ".join(f"{f:.1f} Hz/{100 * z:.2f} %" for f, z in zip(modes.frequency_hz, modes.damping_ratio)))
+    x = prepare_drive("white-noise", args.duration, seed=1)
+    model.drive.set_signal(x, 1000.0)
+    w0, c0 = time.perf_counter(), time.process_time()
+    ref = simulate_linear(lin, model.drive)
+    wall, cpu = time.perf_counter() - w0, time.process_time() - c0
+    res["linear_rt"] = (args.duration / wall, args.duration / cpu)
+    print(f"[1] linear path, {args.duration:.0f} s: {wall:.2f} s wall, {cpu:.2f} s CPU -> "
+          f"{args.duration / wall:.0f}x / {args.duration / cpu:.0f}x real time", flush=True)
+
+    n_ex = int(args.exudyn_seconds * 1000)
+    xs = x[: n_ex + 1]
+    for label, kw in (("before: whole patches, all nodes", dict(marker_nodes=None, exudyn_mesh="all")),
+                      ("after: few patch nodes, used nodes", dict(exudyn_mesh="used"))):
+        if label.startswith("before") and args.skip_before:
+            continue
+        m = build(name, **kw)
+        y, st = simulate_exudyn(m, xs, IntegratorSettings(step_s=1e-3, spectral_radius=1.0))
+        e = band_limited_rms_error(y, ref[:, : xs.size])
+        print(f"[2] Exudyn full model, h = 1 ms, rho 1, {args.exudyn_seconds:.0f} s, {label}: "
+              f"{st['real_time_factor']:.3f}x wall / {st['cpu_real_time_factor']:.3f}x CPU real time, "
+              f"{st.get('newton_iterations', 0) / st['steps']:.2f} Newton it/step; error < 70 Hz {fmt(e)}", flush=True)
+        res[f"exudyn_{label[:5]}"] = (st["real_time_factor"], st["cpu_real_time_factor"], float(np.max(e)))
+
+    for h in args.reduced_steps:
+        y, st = simulate_exudyn_reduced(lin, model.drive, IntegratorSettings(step_s=h))
+        e = band_limited_rms_error(y, ref)
+        print(f"[3] Exudyn reduced, h = {1e3 * h:.4g} ms, {args.duration:.0f} s: {st['real_time_factor']:.2f}x wall / "
+              f"{st['cpu_real_time_factor']:.2f}x CPU real time; error < 70 Hz {fmt(e)}; per channel "
+              + " ".join(f"{n}={100 * v:.1f}" for n, v in zip(lin.sensor_names, e)), flush=True)
+        res[f"reduced_{h}"] = (st["real_time_factor"], st["cpu_real_time_factor"], float(np.max(e)))
+
+    for j in range(min(3, modes.frequency_hz.size)):
+        st0 = modal_initial_state(modes, j)
+        n = int(min(20.0, 25 / (2 * np.pi * modes.frequency_hz[j] * modes.damping_ratio[j])) * 1000)
+        ch = int(np.argmax(np.abs(modes.shapes[:, j])))
+        model.drive.set_signal(np.zeros(n), 1000.0)
+        from exudyn_study.simulate import free_decay_linear
+
+        z_lin, _ = log_decrement_damping(free_decay_linear(lin, st0, n)[ch])
+        y, _ = simulate_exudyn_reduced(lin, model.drive, IntegratorSettings(step_s=0.125e-3), initial_state=st0)
+        z_ex, f_ex = log_decrement_damping(y[ch])
+        zt = modes.damping_ratio[j]
+        print(f"[4] free decay mode {j + 1} ({modes.frequency_hz[j]:.2f} Hz, zeta {100 * zt:.3f} %) at "
+              f"{lin.sensor_names[ch]}: log decrement exact {100 * z_lin:.3f} % ({100 * (z_lin / zt - 1):+.2f} %), "
+              f"Exudyn reduced h=1/8 ms {100 * z_ex:.3f} % ({100 * (z_ex / zt - 1):+.2f} %)", flush=True)
+
+    model.drive.set_signal(x, 1000.0)
+    f, hh = estimate_frf(x, ref)
+    hm = frf_linear(lin, f)[:, 0, :]
+    err = frf_db_error(hh, hm, f)
+    narrow = modes.frequency_hz[2 * modes.damping_ratio * modes.frequency_hz < 2 * (f[1] - f[0])]
+    err2 = frf_db_error(hh, hm, f, exclude_peaks_hz=narrow)
+    print(f"[5] FRF (linear run, H1, df = {f[1] - f[0]:.3f} Hz) vs modal FRF, max dB error 3.5-59 Hz outside "
+          f"antiresonances: max {np.nanmax(err):.2f} dB, median {np.nanmedian(err):.2f} dB; "
+          f"{int(np.sum(err <= 1.0))}/{err.size} channels within 1 dB")
+    print("    per channel: " + " ".join(f"{n}={v:.2f}" for n, v in zip(lin.sensor_names, err)))
+    if narrow.size:
+        print(f"    without the resonances narrower than the resolution ({', '.join(f'{v:.2f}' for v in narrow)} Hz):"
+              f" {int(np.sum(err2 <= 1.0))}/{err2.size} channels within 1 dB, max {np.nanmax(err2):.2f} dB")
+    return res
+
+
+def main(argv=None) -> int:
+    p = argparse.ArgumentParser(description=__doc__.splitlines()[0])
+    p.add_argument("--models", nargs="+", default=["mini", "model1"])
+    p.add_argument("--duration", type=float, default=80.0)
+    p.add_argument("--exudyn-seconds", type=float, default=5.0)
+    p.add_argument("--reduced-steps", type=float, nargs="+", default=[1e-3, 1.0 / 32e3])
+    p.add_argument("--skip-before", action="store_true", help="skip the whole-patch Exudyn run (slow)")
+    args = p.parse_args(argv)
+    print(f"load average {os.getloadavg()}, {os.cpu_count()} cores", flush=True)
+    for name in args.models:
+        bench(name, args)
+    return 0
+
+
+if __name__ == "__main__":
+    raise SystemExit(main())
