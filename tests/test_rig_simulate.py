@@ -173,13 +173,22 @@ def test_white_noise_frf_matches_modal_frf(model_lin):
     """Acceptance: H1 from an 80 s white-noise run vs the modal-superposition FRF, 1 dB outside antiresonances.
 
     On the channels that carry the response (the Y channel ARFVY, 0.1 m/s^2 rms against
-    5-50 m/s^2 elsewhere, is off by several dB over 40-59 Hz; see the closing note of the
-    rig issue), and outside resonances narrower than the estimate's resolution (the
+    5-50 m/s^2 elsewhere, is off by several dB over 40-59 Hz: its response at 950-1050 Hz
+    is ~97 dB above that at 45 Hz, and the cubic-spline drive's spectral images at
+    1 kHz +- f, only ~106 dB down, alias into the 1 kHz samples - there is no
+    anti-aliasing filter in the simulated chain), and outside resonances narrower than the estimate's resolution (the
     0.13 %-damped 29 Hz mode: half-power bandwidth 0.08 Hz, resolution 0.06 Hz: the peak
     is 1.2 dB low in any Welch estimate of this length).
     """
     from exudyn_study import modal
-    from exudyn_study.simulate import estimate_frf, frf_db_error, frf_linear, prepare_drive, simulate_linear
+    from exudyn_study.simulate import (
+        estimate_frf,
+        frf_db_error,
+        frf_linear,
+        frf_linear_at_resolution,
+        prepare_drive,
+        simulate_linear,
+    )
 
     model, lin = model_lin
     modes = modal.system_modes(model, lin, max_frequency_hz=70.0)
@@ -192,3 +201,6 @@ def test_white_noise_frf_matches_modal_frf(model_lin):
     names = list(lin.sensor_names)
     strong = [i for i, n in enumerate(names) if n not in ("ARFVY",)]
     assert np.nanmax(err[strong]) < 1.0, dict(zip(names, np.round(err, 2), strict=True))
+    # the same against the modal FRF seen through the estimate's window: no peak exclusion needed
+    err2 = frf_db_error(h, frf_linear_at_resolution(lin, f), f)
+    assert np.nanmax(err2[strong]) < 1.0, dict(zip(names, np.round(err2, 2), strict=True))
