@@ -22,7 +22,7 @@ def configure(parser: argparse.ArgumentParser) -> None:
                              "of the constraint-projected linearisation; linear: exact discretisation of the "
                              "linearised model")
     parser.add_argument("--step", type=float, default=None,
-                        help="Exudyn time step in s (default 0.25 ms; exudyn-reduced 1/32 ms)")
+                        help="Exudyn time step in s (default 0.25 ms; exudyn-reduced 1/16 ms)")
     parser.add_argument("--mesh", default="coarse", help="mesh size: coarse, production or a size in m")
     parser.add_argument("--bushing", action="store_true", help="model 3: bushings instead of fixed joints")
     parser.add_argument("--cache-dir", default=None, help="flexible-body cache directory")
@@ -37,7 +37,7 @@ def run(args: argparse.Namespace) -> int:
     from .model import BushingParameters, build_model
     from .recording import read_recording, write_recording
     from .rig_cli import parse_damping, parse_mesh
-    from .simulate import IntegratorSettings, simulate
+    from .simulate import REDUCED_STEP_S, IntegratorSettings, simulate
 
     out = Path(args.out)
     if not out.parent.is_dir():
@@ -46,7 +46,7 @@ def run(args: argparse.Namespace) -> int:
     if Path(args.signal).suffix.lower() in (".h5", ".hdf5", ".uff", ".unv"):
         drive = read_recording(args.signal).drive
         signal, rate = drive.data, drive.sample_rate_hz
-    default_step = 1.0 / 32e3 if args.method == "exudyn-reduced" else IntegratorSettings().step_s
+    default_step = REDUCED_STEP_S if args.method == "exudyn-reduced" else IntegratorSettings().step_s
     settings = IntegratorSettings(step_s=default_step if args.step is None else args.step)
     model = build_model(args.model, damping=parse_damping(args.damping), mesh_size=parse_mesh(args.mesh),
                         bushing=BushingParameters() if args.bushing else None, cache_dir=args.cache_dir,
