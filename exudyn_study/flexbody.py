@@ -22,6 +22,7 @@ from dataclasses import dataclass
 import numpy as np
 
 from .errors import InputError
+from .fe.assembly import linear_subtriangles
 from .reduction import ReducedBody
 
 __all__ = ["FFRFData", "ffrf_data", "skew_columns", "modal_damping_matrix", "add_flexible_body", "FlexibleBodyHandle"]
@@ -79,14 +80,9 @@ def _fem_interface(body: ReducedBody):
     fem.nodes = {"Position": np.asarray(body.node_positions_m)}
     tris = np.asarray(body.surface_triangles)
     surface = {"Name": "meshSurface"}
+    surface["Trigs"] = linear_subtriangles(tris)
     if tris.shape[1] == 6:
-        c0, c1, c2, m01, m12, m20 = (tris[:, k] for k in range(6))
-        surface["Trigs"] = np.concatenate(
-            [np.stack(t, axis=1) for t in ((c0, m01, m20), (m01, c1, m12), (m01, m12, m20), (m20, m12, c2))]
-        )
         surface["Trigs6"] = tris
-    else:
-        surface["Trigs"] = tris
     fem.surface = [surface]
     fem.massMatrix = body.mass_matrix
     fem.stiffnessMatrix = body.stiffness_matrix

@@ -36,6 +36,7 @@ __all__ = [
     "load_mesh",
     "interface_from_boundary",
     "rigid_body_modes",
+    "linear_subtriangles",
 ]
 
 log = logging.getLogger(__name__)
@@ -387,21 +388,30 @@ def _check_model(model: FEModel) -> None:
         raise AssertionError(f"assembled mass matrix is not symmetric (relative {asym:.1e})")
 
 
+def linear_subtriangles(triangles: np.ndarray) -> np.ndarray:
+    """Split 6-node triangles (corners, mid nodes 0-1, 1-2, 2-0) into four 3-node triangles.
+
+    Parameters
+    ----------
+    triangles : ndarray of int, shape (n, 6) or (n, 3)
+        3-node triangles are returned unchanged.
+
+    Returns
+    -------
+    ndarray of int, shape (4 n, 3) or (n, 3)
+    """
+    triangles = np.asarray(triangles)
+    if triangles.shape[1] != 6:
+        return triangles
+    c0, c1, c2, m01, m12, m20 = (triangles[:, k] for k in range(6))
+    return np.concatenate(
+        [np.stack(t, axis=1) for t in ((c0, m01, m20), (m01, c1, m12), (m01, m12, m20), (m20, m12, c2))]
+    )
+
+
 def _triangle_node_weights(model: FEModel, tri_mask: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
     """Nodes and area weights of selected surface triangles (each 6-node triangle split in 4)."""
-    tris = model.surface_triangles[tri_mask]
-    if tris.shape[1] == 6:
-        c0, c1, c2, m01, m12, m20 = (tris[:, k] for k in range(6))
-        sub = np.concatenate(
-            [
-                np.stack([c0, m01, m20], axis=1),
-                np.stack([m01, c1, m12], axis=1),
-                np.stack([m01, m12, m20], axis=1),
-                np.stack([m20, m12, c2], axis=1),
-            ]
-        )
-    else:
-        sub = tris
+    sub = linear_subtriangles(model.surface_triangles[tri_mask])
     p = model.node_positions_m
     area = 0.5 * np.linalg.norm(np.cross(p[sub[:, 1]] - p[sub[:, 0]], p[sub[:, 2]] - p[sub[:, 0]]), axis=1)
     nodes, inverse = np.unique(sub.ravel(), return_inverse=True)
