@@ -309,8 +309,8 @@ def simulate_exudyn(model, drive_samples: np.ndarray, settings: IntegratorSettin
     ti.adaptiveStep = False
     ss.solution.file.write = False
     ss.solution.sensors.writePeriod = 1.0 / OUTPUT_RATE_HZ
-    ss.displayStatistics = False
-    ss.displayComputationTime = False
+    ss.show.statistics = False
+    ss.show.computationTime = False
     bar = None
     if progress:
         from tqdm import tqdm
@@ -448,11 +448,11 @@ def simulate_exudyn_reduced(lin, drive, settings: IntegratorSettings = Integrato
     ti.newton.relativeTolerance = settings.relative_tolerance
     ti.newton.absoluteTolerance = settings.absolute_tolerance
     ti.adaptiveStep = False
-    ss.linearSolverType = exu.LinearSolverType.EXUdense
+    ss.linearSolver.solverType = exu.LinearSolverType.EXUdense
     ss.solution.file.write = False
     ss.solution.sensors.writePeriod = 1.0 / OUTPUT_RATE_HZ
-    ss.displayStatistics = False
-    ss.displayComputationTime = False
+    ss.show.statistics = False
+    ss.show.computationTime = False
     t0, c0 = time.perf_counter(), time.process_time()
     try:
         mbs.SolveDynamic(ss, solverType=exu.DynamicSolverType.GeneralizedAlpha, storeSolver=True)
