@@ -5,8 +5,9 @@ Each subcommand lives in its own module, which defines two functions:
 - ``configure(parser: argparse.ArgumentParser) -> None`` adds its arguments;
 - ``run(args: argparse.Namespace) -> int`` does the work and returns the exit code.
 
-Modules are imported only when their subcommand runs, so ``exudyn-study identify``
-never imports ngsolve or exudyn. Bad input (:class:`~exudyn_study.errors.InputError`)
+Every subcommand module is imported to configure its parser, so these modules import
+their heavy dependencies (ngsolve, exudyn) inside ``run`` only: ``exudyn-study identify``
+never imports ngsolve or exudyn (a test checks it). Bad input (:class:`~exudyn_study.errors.InputError`)
 is reported as one line on stderr with exit code 2.
 """
 
@@ -14,7 +15,6 @@ from __future__ import annotations
 
 import argparse
 import importlib
-import importlib.util
 import logging
 import sys
 
@@ -35,18 +35,6 @@ SUBCOMMANDS: dict[str, tuple[str, str]] = {
 }
 
 
-def _available() -> dict[str, tuple[str, str]]:
-    out = {}
-    for name, (module, help_text) in SUBCOMMANDS.items():
-        try:
-            found = importlib.util.find_spec(module) is not None
-        except ModuleNotFoundError:  # its parent package is not there (yet)
-            found = False
-        if found:
-            out[name] = (module, help_text)
-    return out
-
-
 def build_parser() -> argparse.ArgumentParser:
     """Return the argument parser with every available subcommand configured."""
     parser = argparse.ArgumentParser(
@@ -55,7 +43,7 @@ def build_parser() -> argparse.ArgumentParser:
     )
     parser.add_argument("-v", "--verbose", action="store_true", help="log progress details")
     sub = parser.add_subparsers(dest="command", metavar="COMMAND")
-    for name, (module, help_text) in _available().items():
+    for name, (module, help_text) in SUBCOMMANDS.items():
         sub_parser = sub.add_parser(name, help=help_text, description=help_text)
         importlib.import_module(module).configure(sub_parser)
         sub_parser.set_defaults(_module=module)
