@@ -260,6 +260,30 @@ def frf_linear(lin, frequencies_hz) -> np.ndarray:
 
 
 # --------------------------------------------------------------------------------------- Exudyn path
+def _simulation_settings(settings, duration: float):
+    """Exudyn settings of a constant-step generalised-alpha run of ``duration`` s.
+
+    Sensors are written at :data:`OUTPUT_RATE_HZ`; no solution file, no console output.
+    """
+    import exudyn as exu
+
+    ss = exu.SimulationSettings()
+    ti = ss.timeIntegration
+    ti.startTime, ti.endTime, ti.numberOfSteps = 0.0, duration, int(round(duration / settings.step_s))
+    ti.verboseMode = 0
+    ti.generalizedAlpha.spectralRadius = settings.spectral_radius
+    ti.generalizedAlpha.computeInitialAccelerations = True
+    ti.newton.useModifiedNewton = settings.modified_newton
+    ti.newton.relativeTolerance = settings.relative_tolerance
+    ti.newton.absoluteTolerance = settings.absolute_tolerance
+    ti.adaptiveStep = False
+    ss.solution.file.write = False
+    ss.solution.sensors.writePeriod = 1.0 / OUTPUT_RATE_HZ
+    ss.show.statistics = False
+    ss.show.computationTime = False
+    return ss
+
+
 def simulate_exudyn(model, drive_samples: np.ndarray, settings: IntegratorSettings = IntegratorSettings(),
                     progress: bool = False) -> tuple[np.ndarray, dict]:
     """Integrate the model in Exudyn; sensor accelerations at 1000 Hz, shape (n_sensors, N).
@@ -296,21 +320,8 @@ def simulate_exudyn(model, drive_samples: np.ndarray, settings: IntegratorSettin
         model.assemble()
     mbs = model.mbs
     duration = (drive_samples.size - 1) / OUTPUT_RATE_HZ
-    n_steps = int(round(duration / settings.step_s))
-    ss = exu.SimulationSettings()
-    ti = ss.timeIntegration
-    ti.startTime, ti.endTime, ti.numberOfSteps = 0.0, duration, n_steps
-    ti.verboseMode = 0
-    ti.generalizedAlpha.spectralRadius = settings.spectral_radius
-    ti.generalizedAlpha.computeInitialAccelerations = True
-    ti.newton.useModifiedNewton = settings.modified_newton
-    ti.newton.relativeTolerance = settings.relative_tolerance
-    ti.newton.absoluteTolerance = settings.absolute_tolerance
-    ti.adaptiveStep = False
-    ss.solution.file.write = False
-    ss.solution.sensors.writePeriod = 1.0 / OUTPUT_RATE_HZ
-    ss.show.statistics = False
-    ss.show.computationTime = False
+    ss = _simulation_settings(settings, duration)
+    n_steps = ss.timeIntegration.numberOfSteps
     bar = None
     if progress:
         from tqdm import tqdm
@@ -437,22 +448,9 @@ def simulate_exudyn_reduced(lin, drive, settings: IntegratorSettings = Integrato
     mbs.Assemble()
     n_samples = drive.samples.size
     duration = (n_samples - 1) / OUTPUT_RATE_HZ
-    n_steps = int(round(duration / settings.step_s))
-    ss = exu.SimulationSettings()
-    ti = ss.timeIntegration
-    ti.startTime, ti.endTime, ti.numberOfSteps = 0.0, duration, n_steps
-    ti.verboseMode = 0
-    ti.generalizedAlpha.spectralRadius = settings.spectral_radius
-    ti.generalizedAlpha.computeInitialAccelerations = True
-    ti.newton.useModifiedNewton = settings.modified_newton
-    ti.newton.relativeTolerance = settings.relative_tolerance
-    ti.newton.absoluteTolerance = settings.absolute_tolerance
-    ti.adaptiveStep = False
+    ss = _simulation_settings(settings, duration)
+    n_steps = ss.timeIntegration.numberOfSteps
     ss.linearSolver.solverType = exu.LinearSolverType.EXUdense
-    ss.solution.file.write = False
-    ss.solution.sensors.writePeriod = 1.0 / OUTPUT_RATE_HZ
-    ss.show.statistics = False
-    ss.show.computationTime = False
     t0, c0 = time.perf_counter(), time.process_time()
     try:
         mbs.SolveDynamic(ss, solverType=exu.DynamicSolverType.GeneralizedAlpha, storeSolver=True)
