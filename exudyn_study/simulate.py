@@ -515,6 +515,10 @@ def simulate(model, signal="white-noise", duration_s: float = 80.0, method: str 
 
     if method not in METHODS:
         raise InputError(f"method {method!r}; expected one of {list(METHODS)}")
+    if getattr(model, "local_nonlinearities", None) and method != "linear":
+        names = [el.name for el in model.local_nonlinearities]
+        raise InputError(f"the model has local nonlinear elements {names}; method {method!r} integrates only its "
+                         "Exudyn items: use method='linear' (linear model + local nonlinearities)")
     x = prepare_drive(signal, duration_s, rms_m, seed, drive_rate_hz)
     if method == "exudyn":
         acc, stats = simulate_exudyn(model, x, settings, progress=progress)
@@ -527,12 +531,26 @@ def simulate(model, signal="white-noise", duration_s: float = 80.0, method: str 
         t0 = time.perf_counter()
         model.drive.set_signal(x, OUTPUT_RATE_HZ)
         lin = linearize(model)
-        acc = simulate_linear(lin, model.drive)
+        elements = list(getattr(model, "local_nonlinearities", []))
+        if elements:
+            from .physics.nonlinear import gather_vectors, simulate_local_nonlinear
+
+            acc = simulate_local_nonlinear(lin, model.drive, gather_vectors(model, elements),
+                                           [el.law for el in elements])
+        else:
+            acc = simulate_linear(lin, model.drive)
         wall = time.perf_counter() - t0
         stats = {"wall_s": wall, "real_time_factor": (x.size - 1) / OUTPUT_RATE_HZ / wall}
     drive_out = resample(x, OUTPUT_RATE_HZ, DRIVE_RATE_HZ)
+    gains = getattr(model, "output_gains", {})
+    unknown = sorted(set(gains) - set(model.sensors))
+    if unknown:
+        raise InputError(f"output gains for unknown sensor(s) {unknown}; the model has {list(model.sensors)}")
+    acc = np.array(acc, copy=True) if gains else acc
     channels = []
     for i, name in enumerate(model.sensors):
+        if name in gains:
+            acc[i] = acc[i] * float(gains[name])
         s = model.sensors[name].sensor
         channels.append(Channel(name, "acceleration", "m/s^2", s.direction, s.position_m, OUTPUT_RATE_HZ, acc[i],
                                 sensitivity=s.sensitivity))

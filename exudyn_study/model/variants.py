@@ -181,6 +181,12 @@ class Model:
     metadata : dict
         Model, damping and mesh description (goes into recordings and modes files).
     body_data : dict body name -> FlexibleBodyData
+    local_nonlinearities : list of :class:`~exudyn_study.physics.nonlinear.LocalNonlinearity`
+        Residual force elements beyond the linear items (added by physics entries;
+        simulated by ``method='linear'``, see :mod:`exudyn_study.physics.nonlinear`).
+    output_gains : dict sensor name -> float
+        True sensitivity / stated sensitivity of a sensor (a calibration error; applied to
+        the simulated channel, 1 if absent).
     """
 
     variant: int
@@ -198,6 +204,8 @@ class Model:
     metadata: dict = field(default_factory=dict)
     body_data: dict = field(default_factory=dict, repr=False)
     assembled: bool = False
+    local_nonlinearities: list = field(default_factory=list)
+    output_gains: dict = field(default_factory=dict)
 
     def assemble(self) -> None:
         """``mbs.Assemble()`` (call after adding your own items)."""
