@@ -32,6 +32,7 @@ SUBCOMMANDS: dict[str, tuple[str, str]] = {
     "damage": ("exudyn_study.fatigue_cli", "relative pseudo damage between two recordings"),
     "calibrate": ("exudyn_study.calibrate_cli", "choose flexible-body modal damping to match identified modes"),
     "sweep": ("exudyn_study.sweep.cli", "run a parameter sweep from a TOML file (process pool or Dask)"),
+    "virtual-test": ("exudyn_study.virtual_test_cli", "play a scenario on the virtual test rig into recordings"),
 }
 
 

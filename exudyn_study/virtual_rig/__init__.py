@@ -1,0 +1,24 @@
+"""The virtual test rig: truth models with physics the nominal models leave out, measured like the rig.
+
+>>> from exudyn_study.virtual_rig import SCENARIOS
+>>> {"none", "thesis", "added_mass"} <= set(SCENARIOS)
+True
+"""
+
+from .run import DEFAULT_DURATION_S, build_truth, recording_name, run_virtual_test, truth_name, virtual_recording
+from .scenarios import (
+    BLIND_EFFECTS,
+    SCENARIOS,
+    THESIS_TABLE1,
+    Augment,
+    Scenario,
+    random_scenario,
+    register_scenario,
+    scenario,
+)
+
+__all__ = [
+    "DEFAULT_DURATION_S", "build_truth", "recording_name", "run_virtual_test", "truth_name", "virtual_recording",
+    "BLIND_EFFECTS", "SCENARIOS", "THESIS_TABLE1", "Augment", "Scenario", "random_scenario", "register_scenario",
+    "scenario",
+]
