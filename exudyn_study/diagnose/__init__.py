@@ -1,0 +1,21 @@
+"""Diagnosis: locate the mismatch between a model and recordings, name the left-out physics, model it.
+
+Both paths return a :class:`~exudyn_study.diagnose.schema.Diagnosis` (JSON schema in
+:mod:`.schema`):
+
+- :func:`~exudyn_study.diagnose.generic.diagnose_generic`: any structure tested at several
+  excitation levels; the nominal model is a linear modal model identified from the
+  lowest-level recording; finds, names and fits joint nonlinearities (friction micro-slip,
+  stiffening, clearance) across sensor-pair interfaces;
+- :func:`exudyn_study.diagnose.rig.diagnose_rig`: the chassis on the rig (model variants 1-3).
+
+:mod:`.report` writes the HTML report with figures, :mod:`.testbench` simulates a small
+two-beam structure with a bolted lap joint at several levels (a structure of our own for
+tests and benchmarks), :mod:`.cli` is the ``exudyn-study diagnose`` subcommand. Imports
+neither exudyn nor ngsolve.
+"""
+
+from .generic import GenericSettings, check_recordings, diagnose_generic
+from .schema import Diagnosis, Finding, read_json
+
+__all__ = ["Diagnosis", "Finding", "read_json", "diagnose_generic", "GenericSettings", "check_recordings"]
