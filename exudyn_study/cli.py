@@ -30,6 +30,7 @@ SUBCOMMANDS: dict[str, tuple[str, str]] = {
     "simulate": ("exudyn_study.rig_cli_simulate", "simulate a model variant on the rig into a recording"),
     "identify": ("exudyn_study.identify.cli", "identify modes (PolyMAX) from a recording"),
     "damage": ("exudyn_study.fatigue_cli", "relative pseudo damage between two recordings"),
+    "iterate-drive": ("exudyn_study.iterate_cli", "iterate a model's drive to match measured responses"),
     "calibrate": ("exudyn_study.calibrate_cli", "choose flexible-body modal damping to match identified modes"),
     "sweep": ("exudyn_study.sweep.cli", "run a parameter sweep from a TOML file (process pool or Dask)"),
     "virtual-test": ("exudyn_study.virtual_test_cli", "play a scenario on the virtual test rig into recordings"),
