@@ -33,6 +33,7 @@ SUBCOMMANDS: dict[str, tuple[str, str]] = {
     "iterate-drive": ("exudyn_study.iterate_cli", "iterate a model's drive to match measured responses"),
     "calibrate": ("exudyn_study.calibrate_cli", "choose flexible-body modal damping to match identified modes"),
     "sweep": ("exudyn_study.sweep.cli", "run a parameter sweep from a TOML file (process pool or Dask)"),
+    "diagnose": ("exudyn_study.diagnose.cli", "locate model/recording mismatch, name the missing physics, fit it"),
     "virtual-test": ("exudyn_study.virtual_test_cli", "play a scenario on the virtual test rig into recordings"),
 }
 

@@ -113,7 +113,10 @@ class GenericSettings:
         Variance inflation of the chi-square sum for correlated neighbouring lines
         (Hann window, 50 % overlap).
     substeps : int
-        Sub-steps per sample in the time simulation of the reduced nonlinear model.
+        Minimum sub-steps per sample in the time simulation of the reduced nonlinear model.
+    max_step_s : float
+        Longest sub-step in s (more sub-steps at low sampling rates): the element force is held
+        over a sub-step, which a stiff element (a hardened cubic spring) tolerates only if short.
     max_rel_std : float
         A fitted parameter whose relative standard deviation exceeds this is not identifiable.
     """
@@ -124,6 +127,7 @@ class GenericSettings:
     min_effect: float = 0.05
     correlation_factor: float = 2.0
     substeps: int = 4
+    max_step_s: float = 1.0 / 2048.0
     max_rel_std: float = 0.5
 
     def __post_init__(self) -> None:
@@ -490,6 +494,30 @@ def _relative_masses(psi: np.ndarray) -> tuple[np.ndarray, bool]:
     return np.full(n_s, 1.0 / n_s), False
 
 
+def _add_missed_peaks(spec: _Spectra, f0: np.ndarray, z0: np.ndarray):
+    """Add a pole at every clear resonance peak the automatic PolyMAX selection left out.
+
+    Peaks of the summed power ``sum_s |T_s|^2`` (prominence of a factor 2) farther than two
+    half-power bandwidths (or two lines) from every selected pole start at 2 % damping; the
+    pole fit then refines or (if spurious) damps them out.
+    """
+    power = np.sum(np.abs(spec.T) ** 2, axis=0)
+    peaks, _ = scipy.signal.find_peaks(np.log10(np.maximum(power, 1e-300)), prominence=math.log10(2.0))
+    add = []
+    for k in peaks:
+        f = float(spec.freq_hz[k])
+        near = np.abs(f0 - f) <= np.maximum(2.0 * 2.0 * z0 * f0, 2.0 * spec.resolution_hz)
+        if not near.any():
+            add.append(f)
+    if add:
+        log.info("adding %d resonance(s) the automatic selection missed: %s Hz", len(add),
+                 ", ".join(f"{f:.3g}" for f in add))
+        order = np.argsort(np.concatenate([f0, add]))
+        f0 = np.concatenate([f0, add])[order]
+        z0 = np.concatenate([z0, np.full(len(add), 0.02)])[order]
+    return f0, z0
+
+
 def identify_reduced_model(spec: _Spectra, channels, f0=None, z0=None) -> ReducedModel:
     """Identify the real-mode reduced model from the reference spectra (poles from PolyMAX)."""
     from ..identify.frf import FRF
@@ -509,6 +537,7 @@ def identify_reduced_model(spec: _Spectra, channels, f0=None, z0=None) -> Reduce
                              f"{spec.freq_hz[0]:.3g}-{spec.freq_hz[-1]:.3g} Hz; the generic diagnosis needs a "
                              "structure with resonances in the excited band")
         f0, z0 = res.model.frequency_hz, np.maximum(res.model.damping_ratio, 2e-3)
+        f0, z0 = _add_missed_peaks(spec, np.asarray(f0, float), np.asarray(z0, float))
     f_r, z_r, psi, upper, _, _ = _vp_fit(spec, np.asarray(f0, float), np.asarray(z0, float))
     masses, ok = _relative_masses(psi)
     gamma2 = masses @ psi
@@ -790,50 +819,46 @@ class _TimeSim:
             dlt = np.einsum("m,rmn->rn", v, self.eta_t)[idx]
             ref_lin = -(k_re[:, None] * dl + c_re[:, None] * dlt)  # (B, n_f)
         g_r = -(mu - 1.0) / lam * self.scale * w * k_link
-        # real form: delta = xr . a + xi_im . b with xi = xr + i xim
-        dz_re, dz_im = 2.0 * v, np.zeros_like(v)
-        dzt = 2.0 * v * lam
-        g_x = np.concatenate([g_r.real, g_r.imag])
         m = om.size
-        # xi as a real vector [Re, Im]: xi' = mu xi + g r  ->  2x2 blocks
-        mr, mi = mu.real, mu.imag
-        xr = np.zeros((bsz, m))
-        xim = np.zeros((bsz, m))
+        xi = np.zeros((bsz, m), complex)
         state = law.init_state(bsz)
         r_out = np.zeros((bsz, self.n))
-        xr_out = np.zeros((bsz, m, self.n))
-        xi_out = np.zeros((bsz, m, self.n))
+        xi_out = np.zeros((bsz, m, self.n), complex)
         bad = np.zeros(bsz, bool)
-        dzt_re, dzt_im = dzt.real, dzt.imag
-        gre, gim = g_x[:m], g_x[m:]
-        step = law.step
+        # delta = Re(xi . 2v) (+ linear part); delta' = Re(xi . 2 v lam): one matmul for both
+        proj = np.column_stack([2.0 * v, 2.0 * v * lam]).astype(complex)
+        with np.errstate(all="ignore"):  # a diverging job is detected and returned as NaN
+            self._loop(law.step, dl, proj, ref_lin, k_re, c_re, linear_ref, th_cols, state, xi, mu, g_r, r_out,
+                       xi_out, bad)
+            eta_c = 2.0 * xi_out.real
+            eta_ct = 2.0 * (lam[None, :, None] * xi_out).real
+            eta_cdd = -(w * k_link)[None, :, None] * r_out[:, None, :] - om[None, :, None] ** 2 * eta_c - (
+                2 * ze * om)[None, :, None] * eta_ct
+            acc = self.acc_lin[idx] + np.einsum("sm,bmn->bsn", model.psi, eta_cdd)
+        acc[bad] = np.nan
+        return acc
+
+    def _loop(self, step, dl, proj, ref_lin, k_re, c_re, linear_ref, th_cols, state, xi, mu, g_r, r_out, xi_out,
+              bad):
+        sub = self.substeps
+        g_row = g_r[None, :]
         for kf in range(self.n_f):
-            delta = dl[:, kf] + xr @ dz_re
+            z = (xi @ proj).real  # (B, 2): correction delta and delta'
+            delta = dl[:, kf] + z[:, 0]
             force, state = step(delta, state, th_cols)
             if linear_ref:
-                force = force + ref_lin[:, kf] - k_re * (xr @ dz_re) - c_re * (xr @ dzt_re - xim @ dzt_im)
+                force = force + ref_lin[:, kf] - k_re * z[:, 0] - c_re * z[:, 1]
             if kf % sub == 0:
                 ks = kf // sub
                 r_out[:, ks] = force
-                xr_out[:, :, ks] = xr
-                xi_out[:, :, ks] = xim
-            fcol = force[:, None]
-            xr, xim = mr * xr - mi * xim + gre * fcol, mr * xim + mi * xr + gim * fcol
+                xi_out[:, :, ks] = xi
+            xi = mu * xi + force[:, None] * g_row
             if kf % 1024 == 0:
-                blown = ~np.isfinite(xr).all(axis=1) | (np.abs(xr).max(axis=1) > 1e6)
+                blown = ~np.isfinite(xi).all(axis=1) | (np.abs(xi).max(axis=1) > 1e6)
                 if blown.any():
                     bad |= blown
-                    xr[blown] = 0.0
-                    xim[blown] = 0.0
-        del dz_im
-        xi_all = xr_out + 1j * xi_out
-        eta_c = 2.0 * xi_all.real
-        eta_ct = 2.0 * (lam[None, :, None] * xi_all).real
-        eta_cdd = -(w * k_link)[None, :, None] * r_out[:, None, :] - om[None, :, None] ** 2 * eta_c - (
-            2 * ze * om)[None, :, None] * eta_ct
-        acc = self.acc_lin[idx] + np.einsum("sm,bmn->bsn", model.psi, eta_cdd)
-        acc[bad] = np.nan
-        return acc
+                    xi[blown] = 0.0
+        bad |= ~np.isfinite(xi).all(axis=1) | ~np.isfinite(r_out).all(axis=1)
 
 
 def _sim_T(specs, k: int, acc: np.ndarray, settings) -> np.ndarray | None:
@@ -1012,6 +1037,8 @@ class _Candidate:
     drift: str = ""
     errors: dict = field(default_factory=dict)  # 'train_after', 'holdout_after' per (rec, channel)
     signature_score: float = 0.0
+    holdout_after: float = math.inf
+    accs: dict = field(default_factory=dict)
 
 
 def _signature_score(law: _Law, dk_levels: np.ndarray) -> float:
@@ -1058,16 +1085,25 @@ def _el_fit(el: _EL, law: _Law, specs, idx, masks, ref_i: int | None, sigma_ref:
     return (None, math.inf) if best is None else (law.from_internal(best.x), float(best.cost))
 
 
-def _time_residuals(tsim: _TimeSim, pair, law: _Law, thetas, idx, specs, masks, settings, dk_refs, w_ref):
-    """Weighted residual vectors of the time-simulated model, one per parameter set (None if it diverged)."""
-    jobs = [(th, k) for th in thetas for k in idx]
-    dks = [dk_refs[j // len(idx)] for j in range(len(jobs))]
+def _time_residuals(tsim: _TimeSim, pair, law: _Law, thetas, idx, specs, masks, settings, dk_refs, w_ref,
+                    extra=(), cache=None):
+    """Weighted residual vectors of the time-simulated model, one per parameter set (None if it diverged).
+
+    Recordings ``extra`` are simulated in the same batch (not part of the residuals); with a
+    ``cache`` dict, the accelerations of every recording are kept under ``tuple(theta)``.
+    """
+    recs = list(idx) + [k for k in extra if k not in idx]
+    jobs = [(th, k) for th in thetas for k in recs]
+    dks = [dk_refs[j // len(recs)] for j in range(len(jobs))]
     accs = tsim.run(pair, law, jobs, np.array(dks, complex), w_ref)
     out = []
-    for p in range(len(thetas)):
+    for p, th in enumerate(thetas):
+        block = accs[p * len(recs):(p + 1) * len(recs)]
+        if cache is not None:
+            cache[tuple(np.asarray(th, float))] = dict(zip(recs, block, strict=True))
         parts = []
         for q, k in enumerate(idx):
-            t = _sim_T(specs, k, accs[p * len(idx) + q], settings)
+            t = _sim_T(specs, k, block[q], settings)
             if t is None:
                 parts = None
                 break
@@ -1078,10 +1114,12 @@ def _time_residuals(tsim: _TimeSim, pair, law: _Law, thetas, idx, specs, masks, 
     return out
 
 
-def _time_fit(tsim, pair, law: _Law, theta0, idx, specs, masks, settings, sigma_ref, w_ref, iterations=4):
+def _time_fit(tsim, pair, law: _Law, theta0, idx, specs, masks, settings, sigma_ref, w_ref, iterations=3,
+              extra=(), cache=None):
     """Levenberg-Marquardt refinement by time simulation (Jacobian by batched finite differences).
 
-    Returns (theta, std, chi2, n_residuals).
+    Every evaluation is one vectorised run: the base point with its Jacobian columns, or three
+    damped steps together. Returns (theta, std, chi2, n_residuals, max |correlation|).
     """
     lo, hi = law.bounds()
     x = np.clip(law.to_internal(theta0), lo + 1e-6, hi - 1e-6)
@@ -1091,21 +1129,23 @@ def _time_fit(tsim, pair, law: _Law, theta0, idx, specs, masks, settings, sigma_
     def evaluate(xs):
         ths = [law.from_internal(xx) for xx in xs]
         dks = [complex(law.el(sigma_ref, th)) for th in ths]
-        return _time_residuals(tsim, pair, law, ths, idx, specs, masks, settings, dks, w_ref)
+        return _time_residuals(tsim, pair, law, ths, idx, specs, masks, settings, dks, w_ref, extra, cache)
 
-    r0 = evaluate([x])[0]
-    if r0 is None:
-        return None, None, math.inf, 0
-    jac = None
-    for _ in range(iterations):
-        # Jacobian (forward differences) in one batched run
-        rs = evaluate([x + step * np.eye(p)[j] for j in range(p)])
-        if any(r is None for r in rs):
+    jac, r0 = None, None
+    for it in range(iterations + 1):
+        rs = evaluate([x] + [x + step * np.eye(p)[j] for j in range(p)])
+        if rs[0] is None:
+            if r0 is None:
+                return None, None, math.inf, 0, 1.0
             break
-        jac = np.column_stack([(r - r0) / step for r in rs])
+        r0 = rs[0]
+        if any(r is None for r in rs[1:]):
+            break
+        jac = np.column_stack([(r - r0) / step for r in rs[1:]])
+        if it == iterations:
+            break
         jtj, jtr = jac.T @ jac, jac.T @ r0
         dg = np.diag(np.diag(jtj) + 1e-12)
-        # three damped steps tried together in one batched run
         trials = [np.clip(x - np.linalg.solve(jtj + lam * dg, jtr), lo, hi) for lam in (1e-3, 1e-1, 10.0)]
         rt = evaluate(trials)
         costs = [math.inf if r is None else float(r @ r) for r in rt]
@@ -1113,25 +1153,31 @@ def _time_fit(tsim, pair, law: _Law, theta0, idx, specs, masks, settings, sigma_
         if not costs[b] < float(r0 @ r0):
             break
         dx = trials[b] - x
-        x, r0 = trials[b], rt[b]
+        x = trials[b]
         if np.max(np.abs(dx)) < 2e-3:
+            r0 = rt[b]
             break
     theta = law.from_internal(x)
     if jac is None:
-        return theta, np.full(p, np.inf), float(r0 @ r0), r0.size
+        return theta, np.full(p, np.inf), float(r0 @ r0), r0.size, 1.0
     cov = _covariance(jac, r0)
-    # std of the parameter from the std of its internal coordinate
     sd = np.sqrt(np.clip(np.diag(cov), 0, None))
     std = np.array([t * sd[j] if law.params[j].log else sd[j] for j, t in enumerate(theta)])
     corr = cov / np.maximum(np.outer(sd, sd), 1e-300)
-    at_bound = [law.params[j].name for j in range(p) if min(abs(x[j] - lo[j]), abs(x[j] - hi[j])) < 1e-3]
-    return (theta, std, float(r0 @ r0), r0.size) if not at_bound else (theta, np.full(p, np.inf),
-                                                                        float(r0 @ r0), r0.size)
+    max_corr = float(np.max(np.abs(corr - np.diag(np.diag(corr))))) if p > 1 else 0.0
+    at_bound = [j for j in range(p) if min(abs(x[j] - lo[j]), abs(x[j] - hi[j])) < 1e-3]
+    if at_bound:
+        std = std.copy()
+        std[at_bound] = np.inf
+    return theta, std, float(r0 @ r0), r0.size, max_corr
 
 
-def _check_identifiable(law: _Law, theta, std, max_rel_std) -> str:
+def _check_identifiable(law: _Law, theta, std, max_rel_std, max_corr: float = 0.0) -> str:
+    """'' if every parameter is determined (relative std, correlation, not at a bound), else why not."""
     bad = [f"{p.name} = {t:.3g} +- {s:.2g} {p.unit}" for p, t, s in zip(law.params, theta, std, strict=True)
            if not (math.isfinite(s) and s <= max_rel_std * abs(t))]
+    if max_corr > 0.995:
+        bad.append(f"parameters correlated ({max_corr:.4f})")
     if bad:
         return "parameters not identifiable from the training recordings (" + "; ".join(bad) + ")"
     return ""
@@ -1302,7 +1348,8 @@ def diagnose_generic(reference: Recording, train: Sequence[Recording], holdout: 
     # ---- name and fit
     w_ref = _mean_omega(el, 0, model)
     say(f"name: scoring {len(CANDIDATES)} candidate laws at {pair[0]}-{pair[1]} by their signature")
-    tsim = _TimeSim(model, specs, settings.substeps)
+    substeps = max(settings.substeps, math.ceil(1.0 / (ref.rate_hz * settings.max_step_s) - 1e-9))
+    tsim = _TimeSim(model, specs, substeps)
     all_idx = tr_idx + ho_idx
     nominal = {i: _rel_error(_sim_T(specs, i, tsim.acc_lin[i], settings), specs[i], masks[i]) for i in all_idx}
     cands = []
@@ -1317,32 +1364,48 @@ def diagnose_generic(reference: Recording, train: Sequence[Recording], holdout: 
         if th_el is None:
             c.rejected = "the equivalent-linear fit failed"
             continue
-        theta, std, chi, n_r = _time_fit(tsim, pair, law, th_el, fit_idx, specs, masks, settings, sigma_ref, w_ref)
+        cache: dict = {}
+        theta, std, chi, n_r, max_corr = _time_fit(tsim, pair, law, th_el, fit_idx, specs, masks, settings,
+                                                   sigma_ref, w_ref, extra=all_idx, cache=cache)
         if theta is None:
             c.rejected = "the time simulation diverged"
             continue
         c.theta, c.std, c.chi2 = theta, std, chi
         c.bic = chi + law.params.__len__() * math.log(max(n_r, 2))
         c.dk_ref = complex(law.el(sigma_ref, theta))
-        c.rejected = _check_identifiable(law, theta, std, settings.max_rel_std)
+        c.rejected = _check_identifiable(law, theta, std, settings.max_rel_std, max_corr)
         if not c.rejected:
             c.drift = _drift(el, law, theta, specs, fit_idx, masks, sigma_ref)
             if c.drift:
                 c.rejected = c.drift
-        accs = tsim.run(pair, law, [(theta, i) for i in all_idx], c.dk_ref, w_ref)
-        c.errors = {i: _rel_error(_sim_T(specs, i, a, settings), specs[i], masks[i])
-                    for i, a in zip(all_idx, accs, strict=True)}
-    ok = [c for c in cands if not c.rejected]
-    ok.sort(key=lambda c: c.bic)
+        accs = cache.get(tuple(np.asarray(theta, float)))
+        if accs is None:
+            run = tsim.run(pair, law, [(theta, i) for i in all_idx], c.dk_ref, w_ref)
+            accs = dict(zip(all_idx, run, strict=True))
+        c.accs = accs
+        c.errors = {i: _rel_error(_sim_T(specs, i, accs[i], settings), specs[i], masks[i]) for i in all_idx}
+    before_ho = float(np.mean([nominal[i].mean() for i in ho_idx]))
+    ok = []
+    for c in cands:
+        if c.rejected:
+            continue
+        c.holdout_after = float(np.mean([c.errors[i].mean() for i in ho_idx]))
+        if not c.holdout_after < before_ho:
+            c.rejected = f"held-out error not reduced ({before_ho:.3g} -> {c.holdout_after:.3g})"
+        else:
+            ok.append(c)
+    # choose by held-out error; within 10 % of the best held-out error the information criterion decides
     chosen = None
-    for c in ok:
-        before = np.mean([nominal[i].mean() for i in ho_idx])
-        after = np.mean([c.errors[i].mean() for i in ho_idx])
-        if after < before:
-            chosen = c
-            break
-        c.rejected = f"held-out error not reduced ({before:.3g} -> {after:.3g})"
+    if ok:
+        best_ho = min(c.holdout_after for c in ok)
+        close = [c for c in ok if c.holdout_after <= 1.1 * best_ho]
+        chosen = min(close, key=lambda c: c.bic)
+        for c in ok:
+            if c is not chosen:
+                c.rejected = (f"explains less: held-out error {c.holdout_after:.3g} vs {chosen.holdout_after:.3g}, "
+                              f"BIC {c.bic:.4g} vs {chosen.bic:.4g}")
     meta["candidates"] = [{"physics": c.law.name, "signature_score": c.signature_score, "bic": c.bic,
+                           "holdout_after": c.holdout_after,
                            "parameters": None if c.theta is None else c.theta.tolist(),
                            "rejected": c.rejected or None} for c in cands]
     meta["wall_time_s"] = time.perf_counter() - t_start
@@ -1355,8 +1418,7 @@ def diagnose_generic(reference: Recording, train: Sequence[Recording], holdout: 
                                  f"the mismatch is located at interface {pair[0]}-{pair[1]} but no candidate "
                                  f"explains it ({tried})", location)
     law, theta = chosen.law, chosen.theta
-    accs = tsim.run(pair, law, [(theta, i) for i in all_idx], chosen.dk_ref, w_ref)
-    after_T = {specs[i].label: _sim_T(specs, i, a, settings) for i, a in zip(all_idx, accs, strict=True)}
+    after_T = {specs[i].label: _sim_T(specs, i, chosen.accs[i], settings) for i in all_idx}
     if figures is not None:
         figures.update(after_T=after_T, physics=law.name)
     per_channel = {specs[i].label: {ch: {"before": float(nominal[i][s]), "after": float(chosen.errors[i][s])}
