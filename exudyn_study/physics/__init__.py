@@ -7,8 +7,9 @@ not-yet-assembled :class:`~exudyn_study.model.Model`. The virtual test rig (trut
 and the diagnosis (hypotheses) use the same catalogue; users can :func:`register` their own.
 
 >>> from exudyn_study.physics import entry, CATALOGUE
->>> sorted(CATALOGUE)
-['added_mass', 'drive_linkage_compliance']
+>>> sorted(CATALOGUE)  # doctest: +NORMALIZE_WHITESPACE
+['added_mass', 'bushing_stiffening', 'drive_linkage_compliance', 'joint_friction',
+ 'joint_stiffness', 'modal_damping', 'sensor_gain', 'sloshing']
 >>> entry("added_mass").parameter("mass_kg").unit
 'kg'
 """
@@ -24,6 +25,14 @@ from .catalogue import (
     unregister,
 )
 from .entries import ADDED_MASS, DRIVE_LINKAGE_COMPLIANCE
+from .entries_more import (
+    BUSHING_STIFFENING,
+    JOINT_FRICTION,
+    JOINT_STIFFNESS,
+    MODAL_DAMPING,
+    SENSOR_GAIN,
+    SLOSHING,
+)
 
 __all__ = [
     "CATALOGUE",
@@ -36,4 +45,10 @@ __all__ = [
     "unregister",
     "ADDED_MASS",
     "DRIVE_LINKAGE_COMPLIANCE",
+    "JOINT_STIFFNESS",
+    "JOINT_FRICTION",
+    "BUSHING_STIFFENING",
+    "SLOSHING",
+    "MODAL_DAMPING",
+    "SENSOR_GAIN",
 ]

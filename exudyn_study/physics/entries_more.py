@@ -1,0 +1,522 @@
+"""More built-in catalogue entries (registered on import of :mod:`exudyn_study.physics`).
+
+- ``joint_stiffness``: a Model-3 bolted joint as a 6-DOF spring-damper instead of rigid;
+- ``joint_friction``: micro-slip (Jenkins elements) in the contact plane of a Model-3 joint;
+- ``bushing_stiffening``: the left mudguard bracket's rubber stiffens with amplitude (cubic);
+- ``sloshing``: water in a fuel tank as a slosh mass on horizontal springs (Housner/Abramson);
+- ``modal_damping``: a flexible body's modal damping ratios scaled (in a frequency band);
+- ``sensor_gain``: a sensor's true sensitivity differs from the stated one.
+
+The nonlinear entries add their linear tangent as Exudyn items and append
+:class:`~exudyn_study.physics.nonlinear.LocalNonlinearity` elements to
+``model.local_nonlinearities`` (simulate with ``method='linear'``).
+
+References
+----------
+Abramson, H. N. (1966). The dynamic behavior of liquids in moving containers. NASA SP-106.
+Housner, G. W. (1963). The dynamic behavior of water tanks. Bull. Seism. Soc. Am. 53(2).
+Ibrahim, R. A. (2005). Liquid sloshing dynamics. Cambridge University Press.
+"""
+
+from __future__ import annotations
+
+import numpy as np
+
+from ..errors import InputError
+from .catalogue import Parameter, PhysicsEntry, register
+from .nonlinear import CubicStiffening, JenkinsFriction, LocalNonlinearity
+
+__all__ = ["JOINT_STIFFNESS", "JOINT_FRICTION", "BUSHING_STIFFENING", "SLOSHING", "MODAL_DAMPING",
+           "SENSOR_GAIN", "component_joints", "exudyn_mesh_nodes"]
+
+_COMPONENTS = ("tank_left", "tank_right", "bracket_left", "bracket_right")
+_AXES = "xyz"
+
+
+# --------------------------------------------------------------------------------------- helpers
+def component_joints(model) -> dict:
+    """Model-3 joints between a component and the frame: ``'component.interface'`` -> Exudyn object."""
+    return {k: v for k, v in model.joints.items() if "." in k and k.split(".", 1)[0] in _COMPONENTS}
+
+
+def _check_joint_location(who: str):
+    def check(model, location) -> str:
+        if getattr(model, "variant", None) != 3:
+            variant = getattr(model, "variant", None)
+            raise InputError(f"{who}: model {variant} joins its components inside one "
+                             "flexible body and has no separate bolted joints; use model 3")
+        joints = component_joints(model)
+        if isinstance(location, str):
+            if location in joints:
+                return location
+            hits = [k for k in joints if k.split(".", 1)[1] == location]
+            if len(hits) == 1:
+                return hits[0]
+        raise InputError(f"{who}: location {location!r}; expected a component joint of model 3, one of "
+                         f"{sorted(joints)} (or its interface name)")
+    return check
+
+
+def _joint_markers(model, key: str) -> tuple[int, int, int, str]:
+    """(joint object, frame-side marker, component-side marker, Exudyn object type) of a component joint."""
+    joint = int(model.joints[key])
+    obj = model.mbs.GetObject(joint)
+    m0, m1 = (int(m) for m in obj["markerNumbers"])
+    return joint, m0, m1, str(obj["objectType"])
+
+
+def _contact_normal(model, key: str) -> int:
+    """Global axis (0, 1, 2) closest to the normal of the joint's contact patch (least patch extent)."""
+    comp, itf = key.split(".", 1)
+    body = model.bodies[comp].body
+    i = body.interface_index(itf)
+    x = np.asarray(body.node_positions_m)[np.asarray(body.interface_nodes[i], dtype=int)]
+    return int(np.argmin(np.ptp(x, axis=0)))
+
+
+def exudyn_mesh_nodes(model, body_name: str, nodes) -> list[int]:
+    """Exudyn node indices of mesh ``nodes`` of a flexible body, adding them to the body if needed.
+
+    A linear CMS body built with ``exudyn_mesh='used'`` carries only the nodes its markers and
+    sensors use (``handle.mesh_node_map``); missing nodes are appended to its
+    ``referencePositions`` and ``modeBasis`` (rigid-body modes and flexible modes at those
+    nodes), which leaves the existing markers, sensors and the linearised system unchanged.
+    Call before assembly.
+    """
+    handle = model.bodies[body_name]
+    nodes = [int(n) for n in nodes]
+    node_map = handle.__dict__.get("mesh_node_map")
+    if node_map is None:
+        return nodes
+    missing = [n for n in dict.fromkeys(nodes) if n not in node_map]
+    if missing:
+        from ..model.linear_body import rigid_body_basis
+
+        mbs, obj = model.mbs, handle.object_number
+        data = model.body_data[body_name]
+        rows = (3 * np.asarray(missing)[:, None] + np.arange(3)).ravel()
+        extra = np.hstack([rigid_body_basis(data.body, data.ffrf, missing),
+                           np.asarray(data.body.mode_basis)[rows]])
+        basis = np.vstack([np.asarray(mbs.GetObjectParameter(obj, "modeBasis")), extra])
+        ref = np.concatenate([np.asarray(mbs.GetObjectParameter(obj, "referencePositions")).ravel(),
+                              np.asarray(data.body.node_positions_m)[missing].ravel()])
+        mbs.SetObjectParameter(obj, "modeBasis", basis)
+        mbs.SetObjectParameter(obj, "referencePositions", ref)
+        start = len(node_map)
+        for j, n in enumerate(missing):
+            node_map[n] = start + j
+    return [node_map[n] for n in nodes]
+
+
+def _spread(x: np.ndarray, count: int) -> np.ndarray:
+    """Return the indices of ``count`` well-spread points of ``x`` (farthest-point sampling)."""
+    order = [int(np.argmax(np.linalg.norm(x - x.mean(axis=0), axis=1)))]
+    dmin = np.linalg.norm(x - x[order[0]], axis=1)
+    while len(order) < min(count, x.shape[0]):
+        k = int(np.argmax(dmin))
+        order.append(k)
+        dmin = np.minimum(dmin, np.linalg.norm(x - x[k], axis=1))
+    return np.asarray(order)
+
+
+def _node_set_marker(model, body_name: str, nodes, rigid: bool) -> tuple[int, np.ndarray]:
+    """Add a marker averaging mesh ``nodes`` (equal weights); return it and their mean global position."""
+    import exudyn.itemInterface as eii
+
+    handle = model.bodies[body_name]
+    nodes = np.asarray(nodes, dtype=int)
+    local = exudyn_mesh_nodes(model, body_name, nodes)
+    w = [1.0 / nodes.size] * nodes.size
+    kind = eii.MarkerSuperElementRigid if rigid else eii.MarkerSuperElementPosition
+    marker = model.mbs.AddMarker(kind(bodyNumber=handle.object_number, meshNodeNumbers=local,
+                                      weightingFactors=w))
+    pos = np.asarray(handle.body.node_positions_m)[nodes].mean(axis=0) + np.asarray(handle.position_m)
+    return int(marker), pos
+
+
+# --------------------------------------------------------------------------------------- joint_stiffness
+def _add_joint_stiffness(model, location: str, params: dict) -> dict:
+    import exudyn.itemInterface as eii
+
+    mbs = model.mbs
+    joint, m0, m1, kind = _joint_markers(model, location)
+    k_t, k_r = params["stiffness_n_per_m"], params["rotational_stiffness_n_m_per_rad"]
+    k = np.diag([k_t] * 3 + [k_r] * 3)
+    d = params["damping_time_s"] * k
+    if "RigidBodySpringDamper" in kind:  # a bushing model: change the element
+        mbs.SetObjectParameter(joint, "stiffness", k.tolist())
+        mbs.SetObjectParameter(joint, "damping", d.tolist())
+        return {"joint": joint, "spring": joint}
+    mbs.SetObjectParameter(joint, "constrainedAxes", [0] * 6)
+    mbs.SetObjectParameter(joint, "activeConnector", False)
+    spring = mbs.AddObject(eii.ObjectConnectorRigidBodySpringDamper(
+        name=f"joint_stiffness:{location}", markerNumbers=[m0, m1], stiffness=k.tolist(), damping=d.tolist(),
+        visualization=eii.VObjectConnectorRigidBodySpringDamper(show=False)))
+    return {"joint": joint, "spring": int(spring)}
+
+
+JOINT_STIFFNESS = register(PhysicsEntry(
+    name="joint_stiffness",
+    doc="""A bolted joint between a component and the frame as a spring-damper instead of rigid (Model 3).
+
+Physics: Model 3 joins each tank bracket and mudguard bracket to the frame by a fixed joint
+at the interface patches. A real bolted joint is compliant (contact, bolt stretch, plate
+bending around the bolts). The fixed joint is released and a 6-DOF linear spring-damper
+joins the same two patch markers: translational ``stiffness_n_per_m`` and rotational
+``rotational_stiffness_n_m_per_rad`` on the diagonal (global axes), damping
+``damping_time_s`` times the stiffness (stiffness-proportional, ``zeta ~ pi f t``). On a
+model built with bushings the bushing's values are replaced.
+
+Signature: modes that load the joint drop in frequency, to first order
+``d(omega^2) = -sum_j lambda_j^2 / k_j`` (Rayleigh; ``lambda_j`` the force or moment the rigid
+joint carries in the mass-normalised mode); mostly the component's modes; modes that do not
+load the joint (frame-only modes) barely move; the component's sensors (``ATV*``/``ATH*`` for
+a tank, ``ASV*``/``ASH*`` for a bracket) show the lowered resonances.
+""",
+    parameters=(
+        Parameter("stiffness_n_per_m", "N/m", 1e4, 1e11, 5e7, "translational joint stiffness (each axis)"),
+        Parameter("rotational_stiffness_n_m_per_rad", "N m/rad", 1e2, 1e9, 5e5,
+                  "rotational joint stiffness (each axis)"),
+        Parameter("damping_time_s", "s", 0.0, 1e-2, 1e-4, "stiffness-proportional damping factor"),
+    ),
+    add_items=_add_joint_stiffness,
+    locations="a model-3 component joint 'component.interface' (e.g. 'tank_left.tank_left_front', "
+              "'bracket_left.bracket_left') or its unique interface name",
+    check_location=_check_joint_location("joint_stiffness"),
+))
+
+
+# --------------------------------------------------------------------------------------- joint_friction
+def _add_joint_friction(model, location: str, params: dict) -> dict:
+    import exudyn.itemInterface as eii
+
+    mbs = model.mbs
+    joint, m0, m1, kind = _joint_markers(model, location)
+    if "JointGeneric" not in kind:
+        raise InputError(f"joint_friction: joint {location!r} is a {kind}, not a fixed joint; build model 3 "
+                         "without bushings")
+    normal = _contact_normal(model, location)
+    tangential = [a for a in range(3) if a != normal]
+    axes = [1] * 6
+    for a in tangential:
+        axes[a] = 0
+    mbs.SetObjectParameter(joint, "constrainedAxes", axes)
+    k, f_slip = params["stuck_stiffness_n_per_m"], params["slip_force_n"]
+    stiffness = [k if a in tangential else 0.0 for a in range(3)]
+    spring = mbs.AddObject(eii.ObjectConnectorCartesianSpringDamper(
+        name=f"joint_friction:{location}", markerNumbers=[m0, m1], stiffness=stiffness, damping=[0.0] * 3,
+        visualization=eii.VObjectConnectorCartesianSpringDamper(show=False)))
+    law = JenkinsFriction(stiffness_n_per_m=k, slip_force_n=f_slip)
+    for a in tangential:
+        model.local_nonlinearities.append(LocalNonlinearity(
+            name=f"joint_friction:{location}:{_AXES[a]}", marker_a=m0, marker_b=m1, direction=np.eye(3)[a],
+            law=law, description=f"micro-slip of joint {location} along {_AXES[a]}"))
+    return {"joint": joint, "spring": int(spring)}
+
+
+JOINT_FRICTION = register(PhysicsEntry(
+    name="joint_friction",
+    doc="""Micro-slip in the contact plane of a bolted component joint (Model 3, Jenkins elements).
+
+Physics: a preloaded bolted joint sticks at small load and slips partially once the
+tangential load approaches the friction limit. In the contact plane of the joint (the two
+global axes along the patch; on the side-member webs the contact normal is ``y`` and the
+plane is ``x``-``z``) the fixed joint is released and each tangential direction becomes a
+Jenkins element: a stuck spring ``stuck_stiffness_n_per_m`` (added as a linear
+``ObjectConnectorCartesianSpringDamper``, the small-amplitude tangent) in series with a
+Coulomb slider of ``slip_force_n`` (a ``LocalNonlinearity``; simulate with
+``method='linear'``). The normal direction and the three rotations stay rigid.
+
+Signature: amplitude dependent. Below slip the response is exactly that of the stiff joint
+(the linearised model and the modes contain only the stuck spring). Above slip the modes
+that load the joint in shear (a tank's vertical modes on a side-member web) drop in
+frequency and gain damping: each element dissipates ``4 F (a - F / k)`` per cycle of
+relative amplitude ``a > F / k``. Sine responses show a softening, flattened resonance.
+""",
+    parameters=(
+        Parameter("stuck_stiffness_n_per_m", "N/m", 1e4, 1e11, 5e7,
+                  "tangential stiffness of the stuck contact (each direction)"),
+        Parameter("slip_force_n", "N", 0.1, 1e6, 2e3, "friction force at which the contact slips"),
+    ),
+    add_items=_add_joint_friction,
+    locations="a model-3 component joint 'component.interface' (e.g. 'tank_left.tank_left_front') or its "
+              "unique interface name",
+    check_location=_check_joint_location("joint_friction"),
+))
+
+
+# --------------------------------------------------------------------------------------- bushing_stiffening
+_RUBBER_REGION = "bracket_left_rubber"
+
+
+def _rubber_body(model) -> str | None:
+    for name, handle in model.bodies.items():
+        if _RUBBER_REGION in handle.body.region_nodes:
+            return name
+    return None
+
+
+def _check_bushing_location(model, location):
+    if location not in (None, "bracket_left"):
+        raise InputError(f"bushing_stiffening: location {location!r}; expected None or 'bracket_left' "
+                         "(the left mudguard bracket carries the only rubber bushing)")
+    if _rubber_body(model) is None:
+        raise InputError("bushing_stiffening: no body of this model has the rubber region "
+                         f"{_RUBBER_REGION!r}; bodies {sorted(model.bodies)}")
+    return "bracket_left"
+
+
+def _rubber_faces(body, count: int = 8) -> tuple[np.ndarray, np.ndarray]:
+    """Well-spread nodes of the rubber pad's frame-side and bracket-side faces (pad normal: ``y``)."""
+    nodes = np.asarray(body.region_nodes[_RUBBER_REGION], dtype=int)
+    x = np.asarray(body.node_positions_m)[nodes]
+    normal = int(np.argmin(np.ptp(x, axis=0)))
+    depth = np.abs(x[:, normal])  # the pad sits on the side-member web: |y| grows outwards
+    tol = 1e-3 * max(float(np.ptp(x)), 1e-9) + 1e-6
+    inner = nodes[depth <= depth.min() + tol]
+    outer = nodes[depth >= depth.max() - tol]
+    pick = [f[_spread(np.asarray(body.node_positions_m)[f], count)] for f in (inner, outer)]
+    return pick[0], pick[1]
+
+
+def _add_bushing_stiffening(model, location, params: dict) -> dict:
+    body_name = _rubber_body(model)
+    body = model.bodies[body_name].body
+    inner, outer = _rubber_faces(body)
+    m_frame, _ = _node_set_marker(model, body_name, inner, rigid=False)
+    m_bracket, _ = _node_set_marker(model, body_name, outer, rigid=False)
+    law = CubicStiffening(params["cubic_stiffness_n_per_m3"])
+    for axis in (2, 0):
+        model.local_nonlinearities.append(LocalNonlinearity(
+            name=f"bushing_stiffening:{_AXES[axis]}", marker_a=m_frame, marker_b=m_bracket,
+            direction=np.eye(3)[axis], law=law,
+            description=f"cubic stiffening of the left bracket's rubber bushing along {_AXES[axis]}"))
+    return {"frame_side_marker": m_frame, "bracket_side_marker": m_bracket}
+
+
+BUSHING_STIFFENING = register(PhysicsEntry(
+    name="bushing_stiffening",
+    doc="""The left mudguard bracket's rubber bushing stiffens with amplitude (cubic spring).
+
+Physics: rubber in shear and compression hardens at large strain. The nominal bodies carry
+the rubber pad as linear elastic (its small-strain modulus, the linear tangent). A cubic
+residual force ``k3 delta^3`` (``cubic_stiffness_n_per_m3``) acts across the pad in the
+vertical (``z``) and longitudinal (``x``) shear directions: ``delta`` is the relative
+displacement of the pad's two faces, each the mean of eight well-spread mesh nodes of the
+rubber region ``'bracket_left_rubber'`` on the frame side (mounting plate) and on the
+bracket side (base plate). This works on every variant: in Model 3 the pad is inside the
+``bracket_left`` body, in Models 1 and 2 inside the chassis body (the real geometry; a body
+without that region is an error). Simulate with ``method='linear'``.
+
+Signature: at small drive level nothing changes; with rising level the left bracket's
+modes (``ASV*`` sensors) rise in frequency (equivalent stiffness ``k0 + 3/4 k3 a^2`` by
+harmonic balance), and a sine drive produces odd harmonics (3f, 5f) at the bracket whose
+third-harmonic ratio grows as the square of the level; no even harmonics.
+""",
+    parameters=(
+        Parameter("cubic_stiffness_n_per_m3", "N/m^3", 0.0, 1e16, 1e11,
+                  "cubic coefficient of the bushing force in each shear direction"),
+    ),
+    add_items=_add_bushing_stiffening,
+    locations="None or 'bracket_left' (the left mudguard bracket's rubber bushing)",
+    check_location=_check_bushing_location,
+))
+
+
+# --------------------------------------------------------------------------------------- sloshing
+_TANKS = ("tank_left", "tank_right")
+
+
+def _tank_body(model, tank: str) -> tuple[str, np.ndarray]:
+    """(body carrying the tank, its mesh nodes): the Model-3 tank body or the tank's nodes in the chassis."""
+    if tank in model.bodies:
+        return tank, np.asarray(model.bodies[tank].body.component_nodes(tank)
+                                if tank in model.bodies[tank].body.region_components.values()
+                                else np.arange(model.bodies[tank].body.n_nodes), dtype=int)
+    for name, handle in model.bodies.items():
+        if tank in set(handle.body.region_components.values()):
+            return name, np.asarray(handle.body.component_nodes(tank), dtype=int)
+    raise InputError(f"sloshing: no body of this model carries {tank!r}; bodies {sorted(model.bodies)}")
+
+
+def _check_tank_location(model, location):
+    if location not in _TANKS:
+        raise InputError(f"sloshing: location {location!r}; expected one of {list(_TANKS)}")
+    _tank_body(model, location)
+    return location
+
+
+def _add_sloshing(model, location: str, params: dict) -> dict:
+    import exudyn as exu
+    import exudyn.itemInterface as eii
+    import exudyn.utilities as eu
+
+    mbs = model.mbs
+    body_name, nodes = _tank_body(model, location)
+    handle = model.bodies[body_name]
+    x = np.asarray(handle.body.node_positions_m)[nodes]
+    # shell-like tanks: the nodes nearest the eight bounding-box corners span the tank
+    corners = np.array([[a, b, c] for a in (0, 1) for b in (0, 1) for c in (0, 1)], dtype=float)
+    lo, hi = x.min(axis=0), x.max(axis=0)
+    picks = [int(nodes[np.argmin(np.linalg.norm(x - (lo + cc * (hi - lo)), axis=1))]) for cc in corners]
+    picks = list(dict.fromkeys(picks))
+    m_tank, centre = _node_set_marker(model, body_name, picks, rigid=True)
+    m_s = params["slosh_mass_kg"]
+    omega = 2.0 * np.pi * params["slosh_frequency_hz"]
+    k, c = m_s * omega**2, 2.0 * params["slosh_damping_ratio"] * m_s * omega
+    tag = f"sloshing:{location}"
+    r_g = 0.05  # m, radius of gyration of the slosh body: its rotations follow the tank (joint)
+    slosh = mbs.CreateRigidBody(name=tag, referencePosition=centre.tolist(),
+                                inertia=eu.RigidBodyInertia(m_s, np.eye(3) * m_s * r_g**2),
+                                gravity=[0.0, 0.0, 0.0])
+    slosh_node = int(mbs.GetObject(slosh)["nodeNumber"])
+    m_slosh = mbs.AddMarker(eii.MarkerBodyRigid(bodyNumber=slosh, localPosition=[0.0, 0.0, 0.0]))
+    joint = mbs.AddObject(eii.ObjectJointGeneric(
+        name=f"{tag}:vertical", markerNumbers=[m_tank, m_slosh], constrainedAxes=[0, 0, 1, 1, 1, 1],
+        visualization=eii.VObjectJointGeneric(show=False)))
+    spring = mbs.AddObject(eii.ObjectConnectorCartesianSpringDamper(
+        name=f"{tag}:spring", markerNumbers=[m_tank, m_slosh], stiffness=[k, k, 0.0], damping=[c, c, 0.0],
+        visualization=eii.VObjectConnectorCartesianSpringDamper(show=False)))
+    items = {"tank_marker": m_tank, "slosh_body": int(slosh), "slosh_node": slosh_node, "joint": int(joint),
+             "spring": int(spring)}
+    # the bodies already carry the water: take the slosh mass (and its small rotary inertia) off again,
+    # rigidly at the same point. Exudyn rejects a negative ObjectMassPoint/RigidBody mass, so the
+    # compensation is an ObjectGenericODE2 with a negative mass matrix on a rigid node.
+    comp_node = mbs.AddNode(eii.NodeRigidBodyRxyz(name=f"{tag}:compensation", referenceCoordinates=[
+        float(v) for v in centre] + [0.0, 0.0, 0.0]))
+    zero = exu.MatrixContainer(np.zeros((6, 6)))
+    neg = -np.diag([m_s] * 3 + [m_s * r_g**2] * 3)
+    comp = mbs.AddObject(eii.ObjectGenericODE2(name=f"{tag}:compensation", nodeNumbers=[comp_node],
+                                               massMatrix=exu.MatrixContainer(neg), stiffnessMatrix=zero,
+                                               dampingMatrix=zero))
+    m_comp = mbs.AddMarker(eii.MarkerNodeRigid(nodeNumber=comp_node))
+    comp_joint = mbs.AddObject(eii.ObjectJointGeneric(
+        name=f"{tag}:compensation_joint", markerNumbers=[m_tank, m_comp], constrainedAxes=[1] * 6,
+        visualization=eii.VObjectJointGeneric(show=False)))
+    items.update(compensation_node=int(comp_node), compensation=int(comp), compensation_joint=int(comp_joint))
+    return items
+
+
+SLOSHING = register(PhysicsEntry(
+    name="sloshing",
+    doc="""Water sloshing in a partly filled fuel tank (equivalent mechanical model).
+
+Physics: the nominal models smear the tank's water over its shell (it moves rigidly with
+the tank). In a partly filled tank the free surface sloshes. The equivalent mechanical model
+of Housner (1963) and Abramson (1966) replaces the first sloshing mode by a mass
+``slosh_mass_kg`` on horizontal springs (``x`` and ``y``, ``k = m (2 pi f_s)^2``) tuned to
+``slosh_frequency_hz``, with viscous damping ``slosh_damping_ratio``; vertically and in
+rotation it follows the tank (a generic joint). It sits at the tank's centre: a rigid
+marker averaging the tank's mesh nodes nearest its bounding-box corners. The total mass is
+unchanged: the same mass (and the slosh body's small rotary inertia) is taken off rigidly
+at that point by a negative-mass ``ObjectGenericODE2`` (Exudyn refuses negative masses on
+mass points and rigid bodies). The slosh mass must stay below the tank's own mass.
+
+Signature: two new, lightly damped horizontal modes at ``f_s`` (x and y; exactly ``f_s``
+for a rigid, fixed tank, slightly shifted by the tank's own compliance) seen by the tank's
+``X``/``Y`` sensors; the vertical (``Z``) response of the tank is unchanged; away from
+``f_s`` the horizontal response is unchanged (the compensation keeps the low-frequency mass).
+""",
+    parameters=(
+        Parameter("slosh_frequency_hz", "Hz", 0.2, 20.0, 1.5, "first sloshing frequency"),
+        Parameter("slosh_damping_ratio", "1", 0.0, 0.5, 0.02, "damping ratio of the slosh mode"),
+        Parameter("slosh_mass_kg", "kg", 0.1, 300.0, 80.0, "mass taking part in the first sloshing mode"),
+    ),
+    add_items=_add_sloshing,
+    locations=f"a fuel tank, one of {list(_TANKS)}",
+    check_location=_check_tank_location,
+))
+
+
+# --------------------------------------------------------------------------------------- modal_damping
+def _check_body_location(model, location):
+    if not (isinstance(location, str) and location in model.bodies):
+        raise InputError(f"modal_damping: location {location!r}; expected a flexible body of the model, "
+                         f"one of {sorted(model.bodies)}")
+    return location
+
+
+def _add_modal_damping(model, location: str, params: dict) -> dict:
+    import exudyn as exu
+
+    from ..flexbody import modal_damping_matrix
+
+    lo, hi = params["min_frequency_hz"], params["max_frequency_hz"]
+    if lo > hi:
+        raise InputError(f"modal_damping: min_frequency_hz = {lo:g} Hz above max_frequency_hz = {hi:g} Hz")
+    handle = model.bodies[location]
+    freq = np.asarray(handle.body.frequencies_hz, dtype=float)
+    zeta = np.array(handle.damping_ratios, dtype=float)
+    band = (freq >= lo) & (freq <= hi)
+    zeta[band] *= params["factor"]
+    if np.any(zeta >= 1.0):
+        raise InputError(f"modal_damping: factor {params['factor']:g} gives damping ratios up to "
+                         f"{zeta.max():g} on body {location!r}; expected ratios below 1")
+    diag = np.diag(modal_damping_matrix(freq, zeta))
+    if model.formulation == "linear":
+        diag = np.concatenate([np.zeros(6), diag])  # the six rigid-body modes are undamped
+    mc = exu.MatrixContainer()
+    mc.SetWithDenseMatrix(np.diag(diag), useDenseMatrix=False)
+    model.mbs.SetObjectParameter(handle.object_number, "dampingMatrixReduced", mc)
+    return {"body": int(handle.object_number)}
+
+
+MODAL_DAMPING = register(PhysicsEntry(
+    name="modal_damping",
+    doc="""Wrong modal damping of a flexible body: its modal damping ratios scaled by a factor.
+
+Physics: the damping each flexible body carries is a modelling choice (a function of the
+body's free-free mode frequency, thesis Section 3.3); the truth may dissipate more or
+less (joints, coatings, the water). The body's reduced damping matrix
+``diag(2 zeta_i omega_i)`` is rebuilt with ``zeta_i`` times ``factor`` for the body modes
+with free-free frequency in ``[min_frequency_hz, max_frequency_hz]`` (the default band
+covers all). ``model.damping_ratios`` keeps the nominal choice.
+
+Signature: the system modes' natural frequencies are unchanged (undamped: identical); the
+damping of system modes dominated by that body scales by ``factor`` (a mode whose energy
+sits partly elsewhere scales by the body's share of its dissipation); modes of other
+bodies keep their damping; resonance peaks at that body's sensors change height by about
+``1 / factor``.
+""",
+    parameters=(
+        Parameter("factor", "1", 0.1, 10.0, 2.0, "scale of the body's modal damping ratios"),
+        Parameter("min_frequency_hz", "Hz", 0.0, 1e5, 0.0, "lowest body-mode frequency scaled"),
+        Parameter("max_frequency_hz", "Hz", 0.0, 1e5, 1e5, "highest body-mode frequency scaled"),
+    ),
+    add_items=_add_modal_damping,
+    locations="a flexible body of the model ('chassis', 'frame', 'tank_left', ..., 'rear_foundation')",
+    check_location=_check_body_location,
+))
+
+
+# --------------------------------------------------------------------------------------- sensor_gain
+def _check_sensor_location(model, location):
+    if not (isinstance(location, str) and location in model.sensors):
+        raise InputError(f"sensor_gain: location {location!r}; expected a sensor of the model, one of "
+                         f"{list(model.sensors)}")
+    return location
+
+
+def _add_sensor_gain(model, location: str, params: dict) -> dict:
+    model.output_gains[location] = float(model.output_gains.get(location, 1.0)) * params["gain"]
+    return {}
+
+
+SENSOR_GAIN = register(PhysicsEntry(
+    name="sensor_gain",
+    doc="""A sensor's true sensitivity differs from the stated one (a calibration error).
+
+Physics: the recording converts volts with the stated sensitivity (Appendix A); if the
+accelerometer's true sensitivity is ``gain`` times that, the recorded channel is ``gain``
+times the true acceleration. Sets ``model.output_gains[sensor]`` (multiplying an existing
+gain); adds no Exudyn item, so the modes and the linearised system are unchanged.
+
+Signature: one channel scaled by the same real constant at all frequencies and levels
+(its FRF magnitude by ``gain``, phase unchanged; its mode-shape coefficient in every mode
+by ``gain``, so MAC with the other channels drops only slightly); no other channel changes.
+""",
+    parameters=(Parameter("gain", "1", 0.5, 2.0, 1.1, "true / stated sensitivity"),),
+    add_items=_add_sensor_gain,
+    locations="a sensor of the model (e.g. 'ARFVZ')",
+    check_location=_check_sensor_location,
+))

@@ -1,0 +1,419 @@
+"""Catalogue entries of ``physics.entries_more``: each leaves the signature its docstring states.
+
+Small models: the mini frame (Model 1) and a mini Model 3 (mini frame with six interface pads,
+two box tanks, two brackets, the left one on a rubber pad; ``rig_fixtures.mini_model3_bodies``).
+References are physics, not earlier output: the first-order (Rayleigh) frequency drop of a
+compliant joint from the rigid joint's reaction forces, the tuned slosh frequency and
+damping, the Jenkins element's dissipation ``4 F (a - F / k)``, the cubic law's odd
+harmonics growing with the cube of the level, equal damping matrices by two routes.
+"""
+
+from __future__ import annotations
+
+import math
+import sys
+
+import numpy as np
+import pytest
+
+from exudyn_study.errors import InputError
+from exudyn_study.physics import CATALOGUE, entry
+
+sys.path.insert(0, __file__.rsplit("/", 1)[0])
+from rig_fixtures import FRAME_SENSORS, MODEL3_SENSORS, mini_bodies, mini_model3_bodies  # noqa: E402
+
+TWO_PI = 2 * math.pi
+RATE_HZ = 1000.0
+NEW = ("joint_stiffness", "joint_friction", "bushing_stiffening", "sloshing", "modal_damping", "sensor_gain")
+
+
+@pytest.fixture(scope="module", autouse=True)
+def _one_blas_thread():
+    """Small dense matrices (n ~ 90) in long Python loops: a multithreaded BLAS on a shared 2-core
+    machine made this file ~10x slower in wall time (113 s vs 10 s measured); restored afterwards."""
+    try:
+        from threadpoolctl import threadpool_limits
+    except ImportError:  # pragma: no cover - then only slower
+        yield
+        return
+    with threadpool_limits(limits=1):
+        yield
+
+
+@pytest.fixture(scope="module")
+def bodies1():
+    pytest.importorskip("exudyn")
+    return mini_bodies()
+
+
+@pytest.fixture(scope="module")
+def bodies3():
+    pytest.importorskip("exudyn")
+    return mini_model3_bodies()
+
+
+def _model1(bodies, damping="constant-2"):
+    from exudyn_study.model import build_model_from_bodies
+
+    return build_model_from_bodies(bodies, 1, damping=damping, sensors=FRAME_SENSORS, exudyn_mesh="used")
+
+
+def _model3(bodies, damping="constant-2"):
+    from exudyn_study.model import build_model_from_bodies
+
+    return build_model_from_bodies(bodies, 3, damping=damping, sensors=MODEL3_SENSORS, exudyn_mesh="used")
+
+
+@pytest.fixture(scope="module")
+def nominal3(bodies3):
+    from exudyn_study import modal
+
+    model = _model3(bodies3)
+    return model, modal.linearize(model)
+
+
+def _undamped(lin):
+    """Undamped frequencies (Hz) and mass-normalised shapes in the projected coordinates."""
+    import scipy.linalg as sla
+
+    w2, phi = sla.eigh(lin.stiffness, lin.mass)
+    return np.sqrt(np.maximum(w2, 0.0)) / TWO_PI, phi
+
+
+def _sine(freq_hz, amplitude_m, seconds, ramp_s=0.3, smooth=False):
+    t = np.arange(int(round(seconds * RATE_HZ))) / RATE_HZ
+    if smooth:  # cosine ramp: excites the lightly damped modes less
+        envelope = np.where(t < ramp_s, 0.5 * (1.0 - np.cos(math.pi * t / ramp_s)), 1.0)
+    else:
+        envelope = np.minimum(t / ramp_s, 1.0) ** 2
+    return amplitude_m * np.sin(TWO_PI * freq_hz * t) * envelope
+
+
+def _run(model, lin, gather, samples, laws=None, substeps=8):
+    """(sensor accelerations, element displacements) of linear model + the model's local elements."""
+    from exudyn_study.physics.nonlinear import simulate_local_nonlinear
+
+    model.drive.set_signal(samples, RATE_HZ)
+    laws = [el.law for el in model.local_nonlinearities] if laws is None else laws
+    return simulate_local_nonlinear(lin, model.drive, gather, laws, substeps=substeps, return_deltas=True)
+
+
+def _harmonic(x, freq_hz, cycles_from_end):
+    """Complex amplitude of ``x`` at ``freq_hz`` over the last whole ``cycles_from_end`` cycles."""
+    n = int(round(cycles_from_end * RATE_HZ / freq_hz))
+    seg = x[..., -n:]
+    t = np.arange(n) / RATE_HZ
+    return 2.0 / n * seg @ np.exp(-1j * TWO_PI * freq_hz * t)
+
+
+def _hann_harmonic(x, freq_hz, n):
+    """Amplitude of ``x`` at ``freq_hz`` over its last ``n`` samples (Hann window: little leakage from the
+    slowly decaying free vibration of the ~8 Hz bracket modes)."""
+    w = np.hanning(n)
+    t = np.arange(n) / RATE_HZ
+    return 2.0 / w.sum() * (x[-n:] * w) @ np.exp(-1j * TWO_PI * freq_hz * t)
+
+
+# --------------------------------------------------------------------------------------- registry, bad input
+def test_new_entries_are_registered_with_physics_and_signature():
+    for name in NEW:
+        e = CATALOGUE[name]
+        assert "Physics:" in e.doc and "Signature:" in e.doc
+        assert e.locations
+        for p in e.parameters:
+            assert p.lower <= p.default <= p.upper and p.unit
+
+
+def test_bounds_and_unknown_parameters():
+    with pytest.raises(InputError, match=r"parameter gain = 3 1; expected a value in \[0.5, 2\] 1"):
+        entry("sensor_gain").resolve(gain=3)
+    with pytest.raises(InputError, match=r"parameter factor = 0.01 1; expected a value in \[0.1, 10\]"):
+        entry("modal_damping").resolve(factor=0.01)
+    with pytest.raises(InputError, match=r"parameter slosh_frequency_hz = 50 Hz"):
+        entry("sloshing").resolve(slosh_frequency_hz=50)
+    with pytest.raises(InputError, match=r"unknown parameter\(s\) \['k'\]"):
+        entry("joint_stiffness").resolve(k=1.0)
+    with pytest.raises(InputError, match=r"parameter slip_force_n = -1 N"):
+        entry("joint_friction").resolve(slip_force_n=-1)
+
+
+def test_wrong_variant_and_unknown_locations(bodies1, bodies3):
+    m1 = _model1(bodies1)
+    for name in ("joint_stiffness", "joint_friction"):
+        with pytest.raises(InputError, match=rf"{name}: model 1 .* no separate bolted joints; use model 3"):
+            entry(name).apply(m1, "tank_left.tank_left_front")
+    with pytest.raises(InputError, match=r"no body of this model has the rubber region 'bracket_left_rubber"):
+        entry("bushing_stiffening").apply(m1)  # the mini frame has no brackets
+    with pytest.raises(InputError, match=r"sloshing: no body of this model carries 'tank_left'"):
+        entry("sloshing").apply(m1, "tank_left")
+    with pytest.raises(InputError, match=r"sensor_gain: location 'NOPE'; expected a sensor of the model, "
+                                         r"one of \['ARFMZ'"):
+        entry("sensor_gain").apply(m1, "NOPE")
+    with pytest.raises(InputError, match=r"modal_damping: location 'tank'; expected a flexible body .* "
+                                         r"\['chassis', 'rear_foundation'\]"):
+        entry("modal_damping").apply(m1, "tank")
+    m3 = _model3(bodies3)
+    with pytest.raises(InputError, match=r"joint_stiffness: location 'tank_left_middle'; expected a "
+                                         r"component joint of model 3, one of \['bracket_left.bracket_left'"):
+        entry("joint_stiffness").apply(m3, "tank_left_middle")
+    with pytest.raises(InputError, match=r"location 'tank_middle'; expected one of "
+                                         r"\['tank_left', 'tank_right'\]"):
+        entry("sloshing").apply(m3, "tank_middle")
+    with pytest.raises(InputError, match=r"location 'bracket_right'; expected None or 'bracket_left'"):
+        entry("bushing_stiffening").apply(m3, "bracket_right")
+    with pytest.raises(InputError, match=r"min_frequency_hz = 50 Hz above max_frequency_hz = 10 Hz"):
+        entry("modal_damping").apply(m3, "frame", min_frequency_hz=50, max_frequency_hz=10)
+    assert entry("joint_stiffness").apply(m3, "bracket_left").location == "bracket_left.bracket_left"
+
+
+# --------------------------------------------------------------------------------------- joint_stiffness
+def _joint_reactions(model, lin, joint, phi):
+    """Force/moment the fixed ``joint`` carries in each mass-normalised undamped mode, shape (6, n_modes).
+
+    From the unconstrained linearised equations: ``(K - w^2 M) q = -J lambda`` for ``q = N^T phi``.
+    """
+    m_full, k_full, _, jac, _ = model.mbs.ComputeLinearizedSystem(
+        returnConstraintJacobian=True, returnConstraintNullspace=True, autoAssemble=False)
+    m_full, k_full, jac = (np.asarray(a, dtype=float) for a in (m_full, k_full, jac))
+    used = np.flatnonzero(np.any(jac != 0.0, axis=0))
+    cols = np.asarray(model.mbs.systemData.GetObjectLTGAE(joint), dtype=int)
+    q = lin.nullspace.T @ phi
+    w2 = np.einsum("im,ij,jm->m", phi, lin.stiffness, phi)
+    residual = k_full @ q - m_full @ q * w2
+    lam = np.linalg.lstsq(jac[:, used], -residual, rcond=None)[0]
+    return lam[np.searchsorted(used, cols)]
+
+
+def test_joint_stiffness_lowers_the_modes_that_load_the_joint_by_the_rayleigh_estimate(bodies3, nominal3):
+    """d(w^2) = -sum lambda_j^2 / k_j (first order in 1/k), frame-only modes do not move."""
+    from exudyn_study import modal
+
+    model0, lin0 = nominal3
+    k_t, k_r = 2e10, 2e8  # stiff: shifts of ~0.1 %, where first order holds (at 2e9/2e7 the nearly
+    # degenerate left/right tank modes at 30.7/31.1 Hz mix and only their sum follows the estimate)
+    f0, phi0 = _undamped(lin0)
+    w0 = (TWO_PI * f0) ** 2
+    lam = _joint_reactions(model0, lin0, model0.joints["tank_left.tank_left_front"], phi0)
+    d_w2 = np.sum(lam[:3] ** 2, axis=0) / k_t + np.sum(lam[3:] ** 2, axis=0) / k_r
+    predicted = -d_w2 / np.maximum(w0, 1e-9)
+
+    model = _model3(bodies3)
+    applied = entry("joint_stiffness").apply(model, "tank_left_front", stiffness_n_per_m=k_t,
+                                             rotational_stiffness_n_m_per_rad=k_r, damping_time_s=0.0)
+    assert applied.location == "tank_left.tank_left_front"
+    lin = modal.linearize(model)
+    assert lin.size == lin0.size + 6  # six released constraints
+    f1 = _undamped(lin)[0][: f0.size]  # the joint's own modes lie far above
+    band = (f0 > 1.0) & (f0 < 150.0)
+    shift = (f1 / np.where(f0 > 0, f0, 1.0)) ** 2 - 1.0  # relative change of w^2
+    assert np.all(shift[band] <= 1e-9)  # a compliant joint never stiffens
+    big = band & (predicted < -2e-4)
+    quiet = band & (predicted > -1e-5)  # modes that hardly load the joint (frame, other components)
+    assert big.sum() >= 4 and quiet.sum() >= 5
+    np.testing.assert_allclose(shift[band], predicted[band], rtol=0.1, atol=2e-6)
+
+
+# --------------------------------------------------------------------------------------- joint_friction
+def test_joint_friction_is_the_stiff_joint_below_slip_and_dissipates_4f_a_above(bodies3):
+    from exudyn_study import modal
+    from exudyn_study.physics.nonlinear import JenkinsFriction, gather_vectors
+    from exudyn_study.simulate import frf_linear, simulate_linear
+
+    k, f_slip = 5e7, 3e3
+    model = _model3(bodies3)
+    entry("joint_friction").apply(model, "tank_left.tank_left_front", stuck_stiffness_n_per_m=k,
+                                  slip_force_n=f_slip)
+    # the web's normal is y: x and z slip, y and the rotations stay rigid
+    assert [el.name.rsplit(":", 1)[1] for el in model.local_nonlinearities] == ["x", "z"]
+    lin = modal.linearize(model)
+    i = list(lin.sensor_names).index("ATVBZ")
+    f = np.arange(25.0, 35.0, 0.01)
+    f_tank = float(f[np.argmax(np.abs(frf_linear(lin, f)[i, 0]))])  # the left tank's vertical mode, which
+    assert 28.0 < f_tank < 33.0  # shears the joint on the web (z)
+    gather = gather_vectors(model)
+
+    low = _sine(f_tank, 5e-6, 1.0)  # joint force ~ 600 N < slip
+    acc, deltas = _run(model, lin, gather, low)
+    assert np.max(np.abs(k * deltas)) < f_slip
+    model.drive.set_signal(low, RATE_HZ)
+    exact = simulate_linear(lin, model.drive)
+    assert np.max(np.abs(acc - exact)) < 1e-9 * np.max(np.abs(exact))
+
+    high = 20.0 * low  # ~ 4 x the slip force if it stuck
+    acc_hi, d_hi = _run(model, lin, gather, high)
+    model.drive.set_signal(high, RATE_HZ)
+    sticking = np.abs(_harmonic(simulate_linear(lin, model.drive)[i], f_tank, 10))
+    slipping = np.abs(_harmonic(acc_hi[i], f_tank, 10))
+    assert slipping < 0.8 * sticking  # friction damping flattens the resonance
+    # energy per cycle of the z element over the last cycle (replay its law on the simulated slip)
+    n = int(round(RATE_HZ / f_tank))
+    dz = d_hi[1, -(3 * n):]
+    law = JenkinsFriction(k, f_slip)
+    state, force = law.initial_state(), []
+    for d in dz:
+        r, state = law.residual(d, 0.0, state)
+        force.append(k * d + r)
+    force = np.array(force)[-n - 1:]
+    work = float(np.sum(0.5 * (force[1:] + force[:-1]) * np.diff(dz[-n - 1:])))
+    a = 0.5 * (dz[-n - 1:].max() - dz[-n - 1:].min())
+    assert a > 2 * f_slip / k
+    assert work == pytest.approx(4 * f_slip * (a - f_slip / k), rel=0.1)
+    # below the stuck resonance the slipping joint responds relatively more: the resonance moved down
+    f_below = 0.95 * f_tank
+    acc_b, _ = _run(model, lin, gather, _sine(f_below, 20 * 5e-6, 1.0))
+    ratio_hi = np.abs(_harmonic(acc_b[i], f_below, 10)) / slipping
+    h = np.abs(frf_linear(lin, [f_below, f_tank])[i, 0])
+    assert ratio_hi > 1.2 * h[0] / h[1]
+
+
+# --------------------------------------------------------------------------------------- bushing_stiffening
+def test_bushing_stiffening_adds_odd_harmonics_growing_with_the_cube_of_the_level(bodies3):
+    from exudyn_study import modal
+    from exudyn_study.physics.nonlinear import CubicStiffening, gather_vectors
+
+    k3 = 5e12  # N/m^3: 3/4 k3 a^2 ~ 2 % of the pad's shear stiffness at the higher level (weakly nonlinear)
+    model = _model3(bodies3)
+    applied = entry("bushing_stiffening").apply(model, cubic_stiffness_n_per_m3=k3)
+    assert applied.location == "bracket_left"
+    assert [el.direction.tolist() for el in model.local_nonlinearities] == [[0, 0, 1], [1, 0, 0]]
+    lin = modal.linearize(model)
+    gather = gather_vectors(model)
+    i = list(lin.sensor_names).index("ASVZ")
+    f0, seconds, ramp = 5.0, 3.0, 1.0  # below the left bracket's modes (~8 Hz, damping ~0.1 %)
+    n = int(round((seconds - ramp) * RATE_HZ))
+    out = {}
+    for level in (1e-3, 2e-3):
+        drive = _sine(f0, level, seconds, ramp, smooth=True)
+        acc, d = _run(model, lin, gather, drive, substeps=4)
+        acc_lin, d_lin = _run(model, lin, gather, drive, [CubicStiffening(0.0)] * 2, substeps=1)  # exact
+        nl = acc[i] - acc_lin[i]  # what the cubic adds (the linear transients cancel)
+        out[level] = {h: np.abs(_hann_harmonic(nl, h * f0, n)) for h in (1, 2, 3)}
+        out[level]["fund"] = np.abs(_hann_harmonic(acc[i], f0, n))
+        out[level]["delta"] = (np.abs(_hann_harmonic(d[0], f0, n)), np.abs(_hann_harmonic(d_lin[0], f0, n)))
+    lo, hi = out[1e-3], out[2e-3]
+    assert hi[3] > 2e-3 * hi["fund"]  # a visible third harmonic at the bracket
+    assert hi[3] / lo[3] == pytest.approx(8.0, rel=0.1)  # cubic: 2^3
+    assert hi[2] < 0.05 * hi[3] and lo[2] < 0.05 * lo[3]  # no even harmonics
+    # hardening below resonance: less relative motion across the pad than with the linear rubber
+    d_nl, d_lin = hi["delta"]
+    assert d_nl < d_lin * (1 - 2e-3)
+    assert lo["delta"][0] / lo["delta"][1] > d_nl / d_lin  # and the more so at the higher level
+
+
+# --------------------------------------------------------------------------------------- sloshing
+def test_sloshing_adds_the_tuned_horizontal_modes_and_keeps_mass_and_vertical_response(bodies3, nominal3):
+    from exudyn_study import modal
+    from exudyn_study.simulate import frf_linear
+
+    model0, lin0 = nominal3
+    f_s, zeta_s, m_s = 3.0, 0.05, 80.0
+    model = _model3(bodies3)
+    entry("sloshing").apply(model, "tank_left", slosh_frequency_hz=f_s, slosh_damping_ratio=zeta_s,
+                            slosh_mass_kg=m_s)
+    lin = modal.linearize(model)
+    # total mass kept: the rigid drive motion carries exactly the nominal mass
+    r0, r = lin0.drive_shape, lin.drive_shape
+    assert r @ lin.full_mass @ r == pytest.approx(r0 @ lin0.full_mass @ r0, rel=1e-9)
+    modes = modal.system_modes(model, lin, max_frequency_hz=6.0)
+    f_u0, phi_u0 = _undamped(lin0)
+    assert not np.any((f_u0 > 0.5) & (f_u0 < 6.0))
+    # two new modes (x and y) at the tuned frequency and damping (the tank is far stiffer)
+    assert modes.frequency_hz.size == 2
+    np.testing.assert_allclose(modes.frequency_hz, f_s, rtol=0.01)
+    np.testing.assert_allclose(modes.damping_ratio, zeta_s, rtol=0.03)
+    f = np.arange(2.0, 60.0, 0.25)
+    h0, h1 = np.abs(frf_linear(lin0, f)[:, 0]), np.abs(frf_linear(lin, f)[:, 0])
+    names = list(lin.sensor_names)
+    # the slosh modes move the left tank horizontally, one along x and one along y (the vertical drive
+    # hardly excites them: they show in the shapes, not in the drive FRFs)
+    assert sorted(d["tank_left"] for d in modes.direction) == ["X", "Y"]
+    jx = [d["tank_left"] for d in modes.direction].index("X")
+    shape = np.abs(modes.shapes[:, jx])
+    for s in ("ATVBX", "ATVFX"):  # the left tank's x sensors see it, its z sensor hardly
+        assert shape[names.index(s)] > 5 * shape[names.index("ATVBZ")]
+    for s in ("ATVBZ", "ATHBZ", "ARFVZ"):  # vertical response unchanged (within the modal coupling)
+        np.testing.assert_allclose(h1[names.index(s)], h0[names.index(s)], rtol=0.05)
+    # vertical tank modes (the left tank's z sensor dominates its x sensors) do not move
+    shape0 = np.abs(lin0.sensor_output @ phi_u0)
+    vertical = (shape0[names.index("ATVBZ")] > 5 * np.maximum(shape0[names.index("ATVBX")],
+                                                                shape0[names.index("ATVFX")])) & (f_u0 > 6.0)
+    f_u1 = _undamped(lin)[0]
+    assert vertical.sum() >= 2
+    for fz in f_u0[vertical & (f_u0 < 120.0)]:
+        assert np.min(np.abs(f_u1 - fz) / fz) < 2e-3
+
+
+# --------------------------------------------------------------------------------------- modal_damping
+def test_modal_damping_equals_the_scaled_damping_choice(bodies1):
+    """factor x constant-2 on the chassis is constant-(2 x factor): identical linearised systems."""
+    from exudyn_study import modal
+
+    model = _model1(bodies1)
+    entry("modal_damping").apply(model, "chassis", factor=0.5)
+    lin = modal.linearize(model)
+    ref = modal.linearize(_model1(bodies1, damping={"chassis": "constant-1"}))
+    assert np.max(np.abs(lin.damping - ref.damping)) < 1e-10 * np.max(np.abs(ref.damping))
+    np.testing.assert_array_equal(lin.stiffness, ref.stiffness)
+    np.testing.assert_array_equal(lin.mass, ref.mass)
+
+    f_cut = 150.0  # a band: only chassis modes up to 150 Hz are scaled
+    model = _model1(bodies1)
+    entry("modal_damping").apply(model, "chassis", factor=3.0, max_frequency_hz=f_cut)
+    ref = modal.linearize(_model1(bodies1, damping={"chassis": lambda f: np.where(f <= f_cut, 0.06, 0.02)}))
+    lin = modal.linearize(model)
+    assert np.max(np.abs(lin.damping - ref.damping)) < 1e-10 * np.max(np.abs(ref.damping))
+
+
+def test_modal_damping_scales_the_damping_that_body_dissipates(bodies3, nominal3):
+    """zeta_j -> zeta_j + (factor - 1) zeta_j,body (first order, light damping), frequencies kept."""
+    from exudyn_study import modal
+
+    model0, lin0 = nominal3
+    factor, body = 3.0, "bracket_right"
+    f0, phi0 = _undamped(lin0)
+    _, _, d_full, _, _ = model0.mbs.ComputeLinearizedSystem(
+        returnConstraintJacobian=True, returnConstraintNullspace=True, autoAssemble=False)
+    d_full = np.asarray(d_full, dtype=float)
+    idx = np.asarray(model0.mbs.systemData.GetNodeLTGODE2(model0.bodies[body].modal_node), dtype=int)
+    q = lin0.nullspace.T @ phi0
+    w = TWO_PI * np.maximum(f0, 1e-9)
+    zeta0 = np.einsum("im,ij,jm->m", q, d_full, q) / (2 * w)
+    zeta_body = np.einsum("im,ij,jm->m", q[idx], d_full[np.ix_(idx, idx)], q[idx]) / (2 * w)
+    predicted = zeta0 + (factor - 1.0) * zeta_body
+
+    model = _model3(bodies3)
+    entry("modal_damping").apply(model, body, factor=factor)
+    lin = modal.linearize(model)
+    np.testing.assert_array_equal(_undamped(lin)[0], f0)  # stiffness and mass untouched
+    modes = modal.system_modes(model, lin, max_frequency_hz=120.0)
+    band = (f0 > 1.0) & (f0 <= 120.0)
+    assert modes.frequency_hz.size == band.sum()
+    np.testing.assert_allclose(modes.frequency_hz, f0[band], rtol=2e-3)
+    own = zeta_body[band] > 0.5 * zeta0[band]  # modes whose damping is mostly that body's
+    other = zeta_body[band] < 1e-3 * zeta0[band]
+    assert own.sum() >= 1 and other.sum() >= 3
+    np.testing.assert_allclose(modes.damping_ratio, predicted[band], rtol=0.05)
+    np.testing.assert_allclose(modes.damping_ratio[other], zeta0[band][other], rtol=0.01)
+
+
+# --------------------------------------------------------------------------------------- sensor_gain
+def test_sensor_gain_scales_one_channel_only(bodies1):
+    from exudyn_study import modal
+    from exudyn_study.simulate import simulate
+
+    model0 = _model1(bodies1)
+    model = _model1(bodies1)
+    applied = entry("sensor_gain").apply(model, "ARFVZ", gain=1.25)
+    assert applied.items == {} and model.output_gains == {"ARFVZ": 1.25}
+    entry("sensor_gain").apply(model, "ARFVZ", gain=0.8)  # a second error multiplies
+    assert model.output_gains["ARFVZ"] == pytest.approx(1.0)
+    entry("sensor_gain").apply(model, "ARFVZ", gain=1.25)
+    rec0 = simulate(model0, duration_s=1.0, method="linear", rms_m=1e-4)
+    rec = simulate(model, duration_s=1.0, method="linear", rms_m=1e-4)
+    for ch0, ch in zip(rec0.channels, rec.channels, strict=True):
+        gain = 1.25 if ch.name == "ARFVZ" else 1.0
+        scale = np.max(np.abs(ch0.data))
+        np.testing.assert_allclose(ch.data, gain * ch0.data, rtol=1e-12, atol=1e-12 * scale)
+    lin0, lin = modal.linearize(model0), modal.linearize(model)
+    np.testing.assert_array_equal(lin.stiffness, lin0.stiffness)
+    np.testing.assert_array_equal(lin.sensor_map, lin0.sensor_map)
