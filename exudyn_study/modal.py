@@ -83,7 +83,9 @@ class LinearSystem:
     sensor_map: np.ndarray
     sensor_names: tuple
     metadata: dict = field(default_factory=dict)
-    full_mass: np.ndarray | None = field(default=None, repr=False)
+    full_mass: np.ndarray | None = field(default=None, repr=False)  # unprojected (n_q, n_q)
+    full_damping: np.ndarray | None = field(default=None, repr=False)
+    full_stiffness: np.ndarray | None = field(default=None, repr=False)
 
     @property
     def size(self) -> int:
@@ -200,7 +202,8 @@ def linearize(model) -> LinearSystem:
     return LinearSystem(
         mass=mz, damping=cz, stiffness=kz, nullspace=null, drive_shape=r,
         b0=null @ k_full @ r, b1=null @ d_full @ r, b2=null @ m_full @ r,
-        sensor_map=s_map, sensor_names=names, metadata=dict(model.metadata), full_mass=m_full)
+        sensor_map=s_map, sensor_names=names, metadata=dict(model.metadata), full_mass=m_full,
+        full_damping=d_full, full_stiffness=k_full)
 
 
 @dataclass(frozen=True)
