@@ -92,7 +92,7 @@ TWO_PI = 2.0 * math.pi
 GROUND = "drive"  # name of the table/shaker side in an interface pair
 
 
-# ---------------------------------------------------------------------------------------------- settings
+# ------------------------------------------------------------------------------------- settings
 @dataclass(frozen=True)
 class GenericSettings:
     """Settings of :func:`diagnose_generic` (defaults suit a few-minute test at several levels).
@@ -139,7 +139,7 @@ class GenericSettings:
             raise InputError(f"substeps {self.substeps!r}; expected an integer >= 1")
 
 
-# ---------------------------------------------------------------------------------------------- input checks
+# ------------------------------------------------------------------------------------- input checks
 @dataclass(frozen=True)
 class _Layout:
     channels: tuple[str, ...]
@@ -157,19 +157,29 @@ def _label(rec: Recording, default: str) -> str:
 def _layout_of(rec: Recording, who: str) -> tuple:
     drives = rec.drive_channels
     if not drives:
-        raise InputError(f"{who}: recording has no drive channel (role 'drive'); the diagnosis needs the "
-                         "table/shaker displacement: record it, or mark its channel role='drive'")
+        raise InputError(
+            f"{who}: recording has no drive channel (role 'drive'); the diagnosis needs the "
+            "table/shaker displacement: record it, or mark its channel role='drive'"
+        )
     if len(drives) > 1:
-        raise InputError(f"{who}: recording has {len(drives)} drive channels "
-                         f"({', '.join(d.name for d in drives)}); expected exactly one")
+        raise InputError(
+            f"{who}: recording has {len(drives)} drive channels "
+            f"({', '.join(d.name for d in drives)}); expected exactly one"
+        )
     resp = rec.response_channels
     if not resp:
         raise InputError(f"{who}: recording has no response channels; expected accelerometers")
     return tuple((c.name, c.quantity, c.direction) for c in resp), drives[0]
 
 
-def check_recordings(reference: Recording, train: Sequence[Recording], holdout: Sequence[Recording],
-                     interfaces=None, *, labels: Mapping[int, str] | None = None):
+def check_recordings(
+    reference: Recording,
+    train: Sequence[Recording],
+    holdout: Sequence[Recording],
+    interfaces=None,
+    *,
+    labels: Mapping[int, str] | None = None,
+):
     """Validate the inputs of :func:`diagnose_generic`; return (layout, labels, interface dict).
 
     Raises
@@ -185,19 +195,25 @@ def check_recordings(reference: Recording, train: Sequence[Recording], holdout: 
     if not train:
         raise InputError("train: no training recording given; pass at least one (e.g. --train REC)")
     if not holdout:
-        raise InputError("holdout: no held-out recording given; the improvement must be shown on data not "
-                         "used for fitting: pass at least one (another level or signal, --holdout REC)")
+        raise InputError(
+            "holdout: no held-out recording given; the improvement must be shown on data not "
+            "used for fitting: pass at least one (another level or signal, --holdout REC)"
+        )
     ref_layout, ref_drive = _layout_of(reference, "model reference recording")
     quantities = {q for _, q, _ in ref_layout}
     if quantities != {"acceleration"}:
-        raise InputError(f"model reference recording: response quantities {sorted(quantities)}; the generic "
-                         "diagnosis expects acceleration channels")
+        raise InputError(
+            f"model reference recording: response quantities {sorted(quantities)}; the generic "
+            "diagnosis expects acceleration channels"
+        )
     fs = ref_drive.sample_rate_hz
     for name, _, _ in ref_layout:
         if reference.channel(name).sample_rate_hz != fs:
-            raise InputError(f"model reference recording: channel {name!r} sampled at "
-                             f"{reference.channel(name).sample_rate_hz:g} Hz, the drive at {fs:g} Hz; expected one "
-                             "rate (resample first)")
+            raise InputError(
+                f"model reference recording: channel {name!r} sampled at "
+                f"{reference.channel(name).sample_rate_hz:g} Hz, the drive at {fs:g} Hz; expected one "
+                "rate (resample first)"
+            )
     names = {}
     for group, recs in (("train", train), ("holdout", holdout)):
         for i, rec in enumerate(recs):
@@ -209,15 +225,19 @@ def check_recordings(reference: Recording, train: Sequence[Recording], holdout: 
                 ref_names = [n for n, _, _ in ref_layout]
                 got = [n for n, _, _ in lay]
                 if got != ref_names:
-                    diff = (f"channels {got} vs the model's {ref_names}")
+                    diff = f"channels {got} vs the model's {ref_names}"
                 else:
                     diff = "the same channel names with other quantities or directions"
-                raise InputError(f"{who}: sensor layout differs from the model reference recording ({diff}); "
-                                 "all recordings must come from the same sensor layout as the model")
+                raise InputError(
+                    f"{who}: sensor layout differs from the model reference recording ({diff}); "
+                    "all recordings must come from the same sensor layout as the model"
+                )
             rates = {c.sample_rate_hz for c in rec.response_channels} | {drv.sample_rate_hz}
             if rates != {fs}:
-                raise InputError(f"{who}: sampled at {sorted(rates)} Hz; the model reference at {fs:g} Hz; "
-                                 "resample to one rate")
+                raise InputError(
+                    f"{who}: sampled at {sorted(rates)} Hz; the model reference at {fs:g} Hz; "
+                    "resample to one rate"
+                )
             names[(group, i)] = _label(rec, f"{group}[{i}]")
     chans = tuple(n for n, _, _ in ref_layout)
     itfs = _check_interfaces(interfaces, chans)
@@ -229,11 +249,10 @@ def _check_interfaces(interfaces, channels) -> dict[str, tuple[str, str]]:
         pairs = {}
         for i, a in enumerate(channels):
             pairs[f"{GROUND}-{a}"] = (GROUND, a)
-            for b in channels[i + 1:]:
+            for b in channels[i + 1 :]:
                 pairs[f"{a}-{b}"] = (a, b)
         return pairs
-    items = interfaces.items() if isinstance(interfaces, Mapping) else (
-        (None, p) for p in interfaces)
+    items = interfaces.items() if isinstance(interfaces, Mapping) else ((None, p) for p in interfaces)
     out = {}
     for name, pair in items:
         try:
@@ -242,8 +261,10 @@ def _check_interfaces(interfaces, channels) -> dict[str, tuple[str, str]]:
             raise InputError(f"interface {pair!r}: expected a pair of sensor names (a, b)") from None
         for s in (a, b):
             if s != GROUND and s not in channels:
-                raise InputError(f"interface {name or (a, b)!r}: sensor {s!r} is not in the recordings; "
-                                 f"expected one of {list(channels)} or {GROUND!r} (the table)")
+                raise InputError(
+                    f"interface {name or (a, b)!r}: sensor {s!r} is not in the recordings; "
+                    f"expected one of {list(channels)} or {GROUND!r} (the table)"
+                )
         if a == b:
             raise InputError(f"interface {(a, b)!r}: expected two different sensors")
         out[str(name) if name else f"{a}-{b}"] = (a, b)
@@ -252,7 +273,7 @@ def _check_interfaces(interfaces, channels) -> dict[str, tuple[str, str]]:
     return out
 
 
-# ---------------------------------------------------------------------------------------------- spectra
+# ------------------------------------------------------------------------------------- spectra
 @dataclass(frozen=True, eq=False)
 class _Spectra:
     label: str
@@ -281,8 +302,9 @@ def _welch_T(a_b: np.ndarray, x: np.ndarray, fs: float, resolution_hz: float, fm
     return estimate_frf(a_b, x, fs, resolution_hz=resolution_hz, estimator="H1", fmax_hz=fmax)
 
 
-def _spectra(rec: Recording, layout: _Layout, label: str, settings: GenericSettings,
-             band: tuple[float, float] | None) -> _Spectra:
+def _spectra(
+    rec: Recording, layout: _Layout, label: str, settings: GenericSettings, band: tuple[float, float] | None
+) -> _Spectra:
     x, fs = rec.time_data(layout.channels)
     u = rec.channel(rec.drive.name).data
     a_b = _drive_acceleration(np.asarray(u, dtype=float), fs)
@@ -292,28 +314,43 @@ def _spectra(rec: Recording, layout: _Layout, label: str, settings: GenericSetti
         raise InputError(f"recording {label!r}: {exc}") from None
     f = frf.freq_hz
     keep = (f > 0) if band is None else (f >= band[0]) & (f <= band[1])
-    _, g = scipy.signal.welch(a_b, fs, window="hann", nperseg=frf.n_segment, noverlap=frf.n_segment // 2,
-                              detrend="constant")
+    _, g = scipy.signal.welch(
+        a_b, fs, window="hann", nperseg=frf.n_segment, noverlap=frf.n_segment // 2, detrend="constant"
+    )
     coh = np.clip(frf.coherence[:, 0, :], 1e-6, 0.9999)
     h = frf.H[:, 0, :]
     eps = np.sqrt((1.0 - coh) / (coh * 2.0 * frf.n_averages))
     sigma = np.sqrt(2.0) * eps * np.abs(h)
-    return _Spectra(label, f[keep], h[:, keep], coh[:, keep], sigma[:, keep], g[: f.size][keep],
-                    float(np.sqrt(np.mean(a_b[a_b.size // 16:] ** 2))), np.asarray(u, float), a_b, x,
-                    frf.resolution_hz, frf.n_averages, float(fs))
+    return _Spectra(
+        label,
+        f[keep],
+        h[:, keep],
+        coh[:, keep],
+        sigma[:, keep],
+        g[: f.size][keep],
+        float(np.sqrt(np.mean(a_b[a_b.size // 16 :] ** 2))),
+        np.asarray(u, float),
+        a_b,
+        x,
+        frf.resolution_hz,
+        frf.n_averages,
+        float(fs),
+    )
 
 
 def _auto_band(spec: _Spectra) -> tuple[float, float]:
     coh = np.median(spec.coherence, axis=0)
     good = np.flatnonzero(coh >= 0.5)
     if good.size < 8:
-        raise InputError("model reference recording: the coherence between drive and responses is below 0.5 "
-                         "almost everywhere; no excited band can be found (check the drive channel, or give "
-                         "band_hz)")
+        raise InputError(
+            "model reference recording: the coherence between drive and responses is below 0.5 "
+            "almost everywhere; no excited band can be found (check the drive channel, or give "
+            "band_hz)"
+        )
     return float(spec.freq_hz[good[0]]), float(spec.freq_hz[good[-1]])
 
 
-# ---------------------------------------------------------------------------------------------- reduced model
+# ------------------------------------------------------------------------------------- reduced model
 @dataclass(frozen=True, eq=False)
 class ReducedModel:
     """Real-mode model of the base-excited structure identified from the reference recording.
@@ -378,8 +415,11 @@ class ReducedModel:
         v = self._row(b) - self._row(a)
         w = v / self.gamma2
         # K = M Phi W^2 Phi^T M with Phi = psi / gamma (mass-normalised), M = diag(masses)
-        kmat = (self.masses[:, None] * self.psi) @ np.diag(self.omega**2 / self.gamma2) @ (
-            self.psi.T * self.masses[None, :])
+        kmat = (
+            (self.masses[:, None] * self.psi)
+            @ np.diag(self.omega**2 / self.gamma2)
+            @ (self.psi.T * self.masses[None, :])
+        )
         ia = None if a == GROUND else self.channels.index(a)
         ib = None if b == GROUND else self.channels.index(b)
         if ia is None or ib is None:
@@ -455,8 +495,13 @@ def _vp_fit(spec: _Spectra, f0, z0, fixed_poles: bool = False):
     lo = np.concatenate([np.asarray(f0) * 0.7, np.full(n_m, 1e-4)])
     hi = np.concatenate([np.asarray(f0) * 1.3, np.full(n_m, 0.5)])
     p0 = np.clip(p0, lo + 1e-9, hi - 1e-9)
-    sol = scipy.optimize.least_squares(lambda p: solve(p)[1], p0, bounds=(lo, hi), x_scale=np.concatenate(
-        [np.asarray(f0) * 0.01, np.full(n_m, 0.005)]), method="trf")
+    sol = scipy.optimize.least_squares(
+        lambda p: solve(p)[1],
+        p0,
+        bounds=(lo, hi),
+        x_scale=np.concatenate([np.asarray(f0) * 0.01, np.full(n_m, 0.005)]),
+        method="trf",
+    )
     coef, res = solve(sol.x)
     cov = _covariance(sol.jac, res)
     return sol.x[:n_m], sol.x[n_m:], coef[:, :n_m], coef[:, n_m], res, cov
@@ -510,8 +555,11 @@ def _add_missed_peaks(spec: _Spectra, f0: np.ndarray, z0: np.ndarray):
         if not near.any():
             add.append(f)
     if add:
-        log.info("adding %d resonance(s) the automatic selection missed: %s Hz", len(add),
-                 ", ".join(f"{f:.3g}" for f in add))
+        log.info(
+            "adding %d resonance(s) the automatic selection missed: %s Hz",
+            len(add),
+            ", ".join(f"{f:.3g}" for f in add),
+        )
         order = np.argsort(np.concatenate([f0, add]))
         f0 = np.concatenate([f0, add])[order]
         z0 = np.concatenate([z0, np.full(len(add), 0.02)])[order]
@@ -524,18 +572,33 @@ def identify_reduced_model(spec: _Spectra, channels, f0=None, z0=None) -> Reduce
     from ..identify.pipeline import identify_frf
 
     if f0 is None:
-        frf = FRF(spec.freq_hz, spec.T[:, None, :], spec.coherence[:, None, :], "H1", spec.resolution_hz,
-                  spec.n_averages, tuple(channels), ("drive_acc",))
+        frf = FRF(
+            spec.freq_hz,
+            spec.T[:, None, :],
+            spec.coherence[:, None, :],
+            "H1",
+            spec.resolution_hz,
+            spec.n_averages,
+            tuple(channels),
+            ("drive_acc",),
+        )
         import warnings
 
         with warnings.catch_warnings():
             warnings.simplefilter("ignore")  # resolution advice is for EMA users, not here
-            res = identify_frf(frf, band_hz=(float(spec.freq_hz[0]), float(spec.freq_hz[-1])),
-                               orders=range(2, 41), leakage_correction=False, refine=False)
+            res = identify_frf(
+                frf,
+                band_hz=(float(spec.freq_hz[0]), float(spec.freq_hz[-1])),
+                orders=range(2, 41),
+                leakage_correction=False,
+                refine=False,
+            )
         if not len(res.model):
-            raise InputError(f"model reference recording {spec.label!r}: no stable modes found in "
-                             f"{spec.freq_hz[0]:.3g}-{spec.freq_hz[-1]:.3g} Hz; the generic diagnosis needs a "
-                             "structure with resonances in the excited band")
+            raise InputError(
+                f"model reference recording {spec.label!r}: no stable modes found in "
+                f"{spec.freq_hz[0]:.3g}-{spec.freq_hz[-1]:.3g} Hz; the generic diagnosis needs a "
+                "structure with resonances in the excited band"
+            )
         f0, z0 = res.model.frequency_hz, np.maximum(res.model.damping_ratio, 2e-3)
         f0, z0 = _add_missed_peaks(spec, np.asarray(f0, float), np.asarray(z0, float))
     f_r, z_r, psi, upper, _, _ = _vp_fit(spec, np.asarray(f0, float), np.asarray(z0, float))
@@ -547,7 +610,7 @@ def identify_reduced_model(spec: _Spectra, channels, f0=None, z0=None) -> Reduce
     return ReducedModel(tuple(channels), f_r, z_r, psi, upper, masses, gamma2, ok)
 
 
-# ---------------------------------------------------------------------------------------------- joint laws
+# ------------------------------------------------------------------------------------- joint laws
 @dataclass(frozen=True)
 class _Param:
     name: str
@@ -580,7 +643,7 @@ class _Law:
         return np.zeros(n)
 
     def start(self, sigma_max) -> list[np.ndarray]:
-        """Starting points for the fit (internal coordinates)."""
+        """Return starting points for the fit (internal coordinates)."""
         raise NotImplementedError
 
     def to_internal(self, theta):
@@ -604,10 +667,24 @@ _WX = _WX / np.trapezoid(_WX, _X)
 class _Friction(_Law):
     name = "joint_friction"
     physics = "friction micro-slip in the joint (Jenkins element: spring in series with a Coulomb slider)"
-    params = (_Param("slip_share", "1", 1e-3, 3.0, True,
-                     "share of the joint's linear stiffness acting through the slider"),
-              _Param("slip_displacement_m", "m", 1e-9, 1e-1, True,
-                     "relative displacement across the joint at which the slider slips"))
+    params = (
+        _Param(
+            "slip_share",
+            "1",
+            1e-3,
+            3.0,
+            True,
+            "share of the joint's linear stiffness acting through the slider",
+        ),
+        _Param(
+            "slip_displacement_m",
+            "m",
+            1e-9,
+            1e-1,
+            True,
+            "relative displacement across the joint at which the slider slips",
+        ),
+    )
     signature = (-1, +1)
 
     def el(self, sigma, theta):
@@ -631,8 +708,16 @@ class _Friction(_Law):
 class _Stiffening(_Law):
     name = "joint_stiffening"
     physics = "a hardening joint (cubic spring k3 delta^3 in parallel with the linear joint stiffness)"
-    params = (_Param("cubic_ratio_per_m2", "1/m^2", 1e-2, 1e18, True,
-                     "cubic stiffness per linear joint stiffness, k3 / k_link"),)
+    params = (
+        _Param(
+            "cubic_ratio_per_m2",
+            "1/m^2",
+            1e-2,
+            1e18,
+            True,
+            "cubic stiffness per linear joint stiffness, k3 / k_link",
+        ),
+    )
     signature = (+1, 0)
 
     def el(self, sigma, theta):
@@ -648,8 +733,10 @@ class _Stiffening(_Law):
 class _Clearance(_Law):
     name = "joint_clearance"
     physics = "a clearance (dead zone) in the joint: contact stiffness once the gap closes"
-    params = (_Param("gap_m", "m", 1e-9, 1e-1, True, "half-width of the dead zone"),
-              _Param("contact_ratio", "1", 1e-3, 30.0, True, "contact stiffness per linear joint stiffness"))
+    params = (
+        _Param("gap_m", "m", 1e-9, 1e-1, True, "half-width of the dead zone"),
+        _Param("contact_ratio", "1", 1e-3, 30.0, True, "contact stiffness per linear joint stiffness"),
+    )
     signature = (+1, 0)
 
     def el(self, sigma, theta):
@@ -669,7 +756,7 @@ class _Clearance(_Law):
 CANDIDATES = {law.name: law for law in (_Friction(), _Stiffening(), _Clearance())}
 
 
-# ---------------------------------------------------------------------------------------------- EL prediction
+# ------------------------------------------------------------------------------------- EL prediction
 class _EL:
     """Equivalent-linear transmissibilities of the reduced model with a local element at ``pair``.
 
@@ -694,13 +781,26 @@ class _EL:
             t_lin = 1.0 + np.tensordot(model.psi, inv, axes=1) * wf**2 + model.upper[:, None, None] * wf**2
             p_el = np.tensordot(model.psi, w[:, None, None] * inv, axes=1) * wf**2  # (n_s, n_f, n_off)
             c = kw.size // 2
-            self.items.append(dict(delta0=delta0, gvd=gvd, t_lin=t_lin @ kw, p=p_el, kw=kw, freq_hz=sp.freq_hz,
-                                   d0c=delta0[:, c], gc=gvd[:, c], ga=sp.g_aa * sp.resolution_hz))
+            self.items.append(
+                dict(
+                    delta0=delta0,
+                    gvd=gvd,
+                    t_lin=t_lin @ kw,
+                    p=p_el,
+                    kw=kw,
+                    freq_hz=sp.freq_hz,
+                    d0c=delta0[:, c],
+                    gc=gvd[:, c],
+                    ga=sp.g_aa * sp.resolution_hz,
+                )
+            )
 
     def sigma(self, i: int, dk: complex = 0j) -> float:
         """Relative-displacement rms of recording ``i`` with the element change ``dk``."""
         it = self.items[i]
-        return math.sqrt(float(np.sum(np.abs(it["d0c"] / (1.0 + self.k_link * dk * it["gc"])) ** 2 * it["ga"])))
+        return math.sqrt(
+            float(np.sum(np.abs(it["d0c"] / (1.0 + self.k_link * dk * it["gc"])) ** 2 * it["ga"]))
+        )
 
     def predict(self, i: int, dk: complex) -> np.ndarray:
         """Smoothed T (n_s, n_f) of recording ``i`` with the element change ``dk`` (per k_link)."""
@@ -712,7 +812,7 @@ class _EL:
         return it["t_lin"] + ke * ((it["p"] * delta[None]) @ it["kw"])
 
     def derivative(self, i: int, dk: complex) -> np.ndarray:
-        """d T / d dk (n_s, n_f) of recording ``i`` (complex derivative)."""
+        """Return dT/d(dk), shape (n_s, n_f), of recording ``i`` (complex derivative)."""
         it = self.items[i]
         ke = self.k_link * dk
         q = 1.0 + ke * it["gvd"]
@@ -746,7 +846,7 @@ def _weighted_residuals(preds, specs, band_masks, sigma_extra=None):
     return np.concatenate(res)
 
 
-# ---------------------------------------------------------------------------------------------- time simulation
+# ------------------------------------------------------------------------------------- time simulation
 class _TimeSim:
     """Time simulation of the reduced model (+ one local element) driven by the recorded drives.
 
@@ -784,15 +884,19 @@ class _TimeSim:
         self.eta = 2.0 * xi.real  # (R, m, n_f)
         self.eta_t = 2.0 * (self.lam[None, :, None] * xi).real
         samp = slice(0, self.n_f, substeps)
-        eta_dd = p_fine[:, None, samp] - om[None, :, None] ** 2 * self.eta[..., samp] - (
-            2 * ze * om)[None, :, None] * self.eta_t[..., samp]
+        eta_dd = (
+            p_fine[:, None, samp]
+            - om[None, :, None] ** 2 * self.eta[..., samp]
+            - (2 * ze * om)[None, :, None] * self.eta_t[..., samp]
+        )
         a_b = -p_fine[:, samp]
         acc = a_b[:, None, :] + np.einsum("sm,rmn->rsn", model.psi, eta_dd)
         if np.any(model.upper != 0):
             spec = np.fft.rfft(a_b, axis=-1)
             wf = TWO_PI * np.fft.rfftfreq(a_b.shape[-1], 1.0 / rate)
-            acc = acc + np.fft.irfft(model.upper[None, :, None] * (wf**2 * spec)[:, None, :], a_b.shape[-1],
-                                     axis=-1)
+            acc = acc + np.fft.irfft(
+                model.upper[None, :, None] * (wf**2 * spec)[:, None, :], a_b.shape[-1], axis=-1
+            )
         self.acc_lin = acc  # (R, n_s, n)
 
     def run(self, pair, law: _Law, jobs, dk_ref=0j, w_ref: float = 1.0) -> np.ndarray:
@@ -802,7 +906,7 @@ class _TimeSim:
         (the reference level's equivalent stiffness is already in the identified modes); ``dk_ref``
         is one complex number or one per job. Jobs that diverge come back as NaN.
         """
-        model, sub = self.model, self.substeps
+        model = self.model
         om, ze, lam, mu = model.omega, model.damping_ratio, self.lam, self.mu
         v, w, k_link = model.coupling(pair)
         idx = np.array([k for _, k in jobs], dtype=int)
@@ -828,18 +932,37 @@ class _TimeSim:
         # delta = Re(xi . 2v) (+ linear part); delta' = Re(xi . 2 v lam): one matmul for both
         proj = np.column_stack([2.0 * v, 2.0 * v * lam]).astype(complex)
         with np.errstate(all="ignore"):  # a diverging job is detected and returned as NaN
-            self._loop(law.step, dl, proj, ref_lin, k_re, c_re, linear_ref, th_cols, state, xi, mu, g_r, r_out,
-                       xi_out, bad)
+            self._loop(
+                law.step,
+                dl,
+                proj,
+                ref_lin,
+                k_re,
+                c_re,
+                linear_ref,
+                th_cols,
+                state,
+                xi,
+                mu,
+                g_r,
+                r_out,
+                xi_out,
+                bad,
+            )
             eta_c = 2.0 * xi_out.real
             eta_ct = 2.0 * (lam[None, :, None] * xi_out).real
-            eta_cdd = -(w * k_link)[None, :, None] * r_out[:, None, :] - om[None, :, None] ** 2 * eta_c - (
-                2 * ze * om)[None, :, None] * eta_ct
+            eta_cdd = (
+                -(w * k_link)[None, :, None] * r_out[:, None, :]
+                - om[None, :, None] ** 2 * eta_c
+                - (2 * ze * om)[None, :, None] * eta_ct
+            )
             acc = self.acc_lin[idx] + np.einsum("sm,bmn->bsn", model.psi, eta_cdd)
         acc[bad] = np.nan
         return acc
 
-    def _loop(self, step, dl, proj, ref_lin, k_re, c_re, linear_ref, th_cols, state, xi, mu, g_r, r_out, xi_out,
-              bad):
+    def _loop(
+        self, step, dl, proj, ref_lin, k_re, c_re, linear_ref, th_cols, state, xi, mu, g_r, r_out, xi_out, bad
+    ):
         sub = self.substeps
         g_row = g_r[None, :]
         for kf in range(self.n_f):
@@ -880,7 +1003,7 @@ def _rel_error(t_model, sp: _Spectra, mask) -> np.ndarray:
     return num / np.maximum(np.linalg.norm(sp.T[:, mask], axis=1), 1e-30)
 
 
-# ---------------------------------------------------------------------------------------------- compare
+# ------------------------------------------------------------------------------------- compare
 @dataclass(frozen=True, eq=False)
 class Comparison:
     """Nominal model against every recording, per channel and band.
@@ -947,13 +1070,16 @@ def _compare(model, specs, kerns, ref: _Spectra, settings: GenericSettings, labe
             stat[i, :, b] = chi / (2 * n)
             pval[i, :, b] = scipy.stats.chi2.sf(chi / kappa, 2 * n / kappa)
             rel[i, :, b] = np.linalg.norm((t_mod - sp.T)[:, m], axis=1) / np.maximum(
-                np.linalg.norm(sp.T[:, m], axis=1), 1e-30)
+                np.linalg.norm(sp.T[:, m], axis=1), 1e-30
+            )
     level = settings.alpha / pval.size
     sig = (pval < level) & (rel > settings.min_effect)
-    return Comparison(tuple(labels), np.array([sp.level for sp in specs]), bands, stat, pval, rel, sig, coh, rmap)
+    return Comparison(
+        tuple(labels), np.array([sp.level for sp in specs]), bands, stat, pval, rel, sig, coh, rmap
+    )
 
 
-# ---------------------------------------------------------------------------------------------- locate
+# ------------------------------------------------------------------------------------- locate
 def _fit_dk(el: _EL, specs, idx, masks) -> tuple[np.ndarray, float]:
     """Per-recording complex stiffness change (per k_link) at the interface: (dk (n,), chi2)."""
     dks, chi = [], 0.0
@@ -974,8 +1100,9 @@ def _fit_dk(el: _EL, specs, idx, masks) -> tuple[np.ndarray, float]:
         best = None
         for x0 in ((0.0, 0.0), (-0.3, 0.1), (0.3, 0.0)):
             try:
-                sol = scipy.optimize.least_squares(res, np.array(x0), jac=jac, method="lm", x_scale=0.1,
-                                                   max_nfev=100)
+                sol = scipy.optimize.least_squares(
+                    res, np.array(x0), jac=jac, method="lm", x_scale=0.1, max_nfev=100
+                )
             except (ValueError, np.linalg.LinAlgError):
                 continue
             if best is None or sol.cost < best.cost:
@@ -1020,11 +1147,13 @@ def _modal_shifts(model: ReducedModel, pair, k_link_dk: complex):
         z[r] = -l2[j2].real / abs(l2[j2])
         phi_new = model.psi @ vec2[:n, j2]
         phi_ref = model.psi[:, r]
-        mac[r] = abs(np.vdot(phi_ref, phi_new)) ** 2 / (np.vdot(phi_ref, phi_ref).real * np.vdot(phi_new, phi_new).real)
+        mac[r] = abs(np.vdot(phi_ref, phi_new)) ** 2 / (
+            np.vdot(phi_ref, phi_ref).real * np.vdot(phi_new, phi_new).real
+        )
     return f, z, mac
 
 
-# ---------------------------------------------------------------------------------------------- fit candidates
+# ------------------------------------------------------------------------------------- fit candidates
 @dataclass
 class _Candidate:
     law: _Law
@@ -1085,8 +1214,9 @@ def _el_fit(el: _EL, law: _Law, specs, idx, masks, ref_i: int | None, sigma_ref:
     return (None, math.inf) if best is None else (law.from_internal(best.x), float(best.cost))
 
 
-def _time_residuals(tsim: _TimeSim, pair, law: _Law, thetas, idx, specs, masks, settings, dk_refs, w_ref,
-                    extra=(), cache=None):
+def _time_residuals(
+    tsim: _TimeSim, pair, law: _Law, thetas, idx, specs, masks, settings, dk_refs, w_ref, extra=(), cache=None
+):
     """Weighted residual vectors of the time-simulated model, one per parameter set (None if it diverged).
 
     Recordings ``extra`` are simulated in the same batch (not part of the residuals); with a
@@ -1098,7 +1228,7 @@ def _time_residuals(tsim: _TimeSim, pair, law: _Law, thetas, idx, specs, masks, 
     accs = tsim.run(pair, law, jobs, np.array(dks, complex), w_ref)
     out = []
     for p, th in enumerate(thetas):
-        block = accs[p * len(recs):(p + 1) * len(recs)]
+        block = accs[p * len(recs) : (p + 1) * len(recs)]
         if cache is not None:
             cache[tuple(np.asarray(th, float))] = dict(zip(recs, block, strict=True))
         parts = []
@@ -1114,8 +1244,21 @@ def _time_residuals(tsim: _TimeSim, pair, law: _Law, thetas, idx, specs, masks, 
     return out
 
 
-def _time_fit(tsim, pair, law: _Law, theta0, idx, specs, masks, settings, sigma_ref, w_ref, iterations=3,
-              extra=(), cache=None):
+def _time_fit(
+    tsim,
+    pair,
+    law: _Law,
+    theta0,
+    idx,
+    specs,
+    masks,
+    settings,
+    sigma_ref,
+    w_ref,
+    iterations=3,
+    extra=(),
+    cache=None,
+):
     """Levenberg-Marquardt refinement by time simulation (Jacobian by batched finite differences).
 
     Every evaluation is one vectorised run: the base point with its Jacobian columns, or three
@@ -1174,8 +1317,11 @@ def _time_fit(tsim, pair, law: _Law, theta0, idx, specs, masks, settings, sigma_
 
 def _check_identifiable(law: _Law, theta, std, max_rel_std, max_corr: float = 0.0) -> str:
     """'' if every parameter is determined (relative std, correlation, not at a bound), else why not."""
-    bad = [f"{p.name} = {t:.3g} +- {s:.2g} {p.unit}" for p, t, s in zip(law.params, theta, std, strict=True)
-           if not (math.isfinite(s) and s <= max_rel_std * abs(t))]
+    bad = [
+        f"{p.name} = {t:.3g} +- {s:.2g} {p.unit}"
+        for p, t, s in zip(law.params, theta, std, strict=True)
+        if not (math.isfinite(s) and s <= max_rel_std * abs(t))
+    ]
     if max_corr > 0.995:
         bad.append(f"parameters correlated ({max_corr:.4f})")
     if bad:
@@ -1197,22 +1343,33 @@ def _drift(el: _EL, law: _Law, theta, specs, idx, masks, sigma_ref) -> str:
         vals = np.array([th[j] for _, th in per])
         if vals.size < 2:
             continue
-        ratio = vals.max() / max(vals.min(), 1e-300) if p.log else 1.0 + abs(vals.max() - vals.min()) / max(
-            abs(theta[j]), 1e-300)
+        ratio = (
+            vals.max() / max(vals.min(), 1e-300)
+            if p.log
+            else 1.0 + abs(vals.max() - vals.min()) / max(abs(theta[j]), 1e-300)
+        )
         if ratio > 3.0:
             desc = ", ".join(f"{lab}: {th[j]:.3g}" for lab, th in per)
             msgs.append(f"{p.name} drifts between training recordings ({desc} {p.unit})")
     return "; ".join(msgs)
 
 
-# ---------------------------------------------------------------------------------------------- main
+# ------------------------------------------------------------------------------------- main
 def _fmt_level(x: float) -> str:
     return f"{x:.3g} m/s^2"
 
 
-def diagnose_generic(reference: Recording, train: Sequence[Recording], holdout: Sequence[Recording],
-                     interfaces=None, *, settings: GenericSettings | None = None, labels=None,
-                     progress=None, figures: dict | None = None) -> Diagnosis:
+def diagnose_generic(
+    reference: Recording,
+    train: Sequence[Recording],
+    holdout: Sequence[Recording],
+    interfaces=None,
+    *,
+    settings: GenericSettings | None = None,
+    labels=None,
+    progress=None,
+    figures: dict | None = None,
+) -> Diagnosis:
     """Diagnose a structure tested at several levels against its lowest-level linear modal model.
 
     Parameters
@@ -1233,7 +1390,8 @@ def diagnose_generic(reference: Recording, train: Sequence[Recording], holdout: 
     progress : callable(str), optional
         Receives one line per stage.
     figures : dict, optional
-        If given, filled with the arrays the report draws (:func:`~exudyn_study.diagnose.report.write_report`).
+        If given, filled with the arrays the report draws
+        (:func:`~exudyn_study.diagnose.report.write_report`).
 
     Returns
     -------
@@ -1260,7 +1418,9 @@ def diagnose_generic(reference: Recording, train: Sequence[Recording], holdout: 
     ref0 = _spectra(reference, layout, ref_label, settings, None)
     band = tuple(settings.band_hz) if settings.band_hz else _auto_band(ref0)
     ref = _spectra(reference, layout, ref_label, settings, band)
-    specs = [ref] + [_spectra(r, layout, lab, settings, band) for r, lab in zip(train, tr_labels, strict=True)]
+    specs = [ref] + [
+        _spectra(r, layout, lab, settings, band) for r, lab in zip(train, tr_labels, strict=True)
+    ]
     specs += [_spectra(r, layout, lab, settings, band) for r, lab in zip(holdout, ho_labels, strict=True)]
     n_tr = len(train)
     tr_idx = list(range(1, 1 + n_tr))
@@ -1271,26 +1431,45 @@ def diagnose_generic(reference: Recording, train: Sequence[Recording], holdout: 
     say("compare: residuals per recording, channel and band against the measurement noise")
     comp = _compare(model, specs, kerns, ref, settings, [sp.label for sp in specs])
     meta = {
-        "path": "generic", "model": f"modal:{ref_label}", "reference": ref_label,
-        "train": tr_labels, "holdout": ho_labels, "band_hz": list(band),
+        "path": "generic",
+        "model": f"modal:{ref_label}",
+        "reference": ref_label,
+        "train": tr_labels,
+        "holdout": ho_labels,
+        "band_hz": list(band),
         "levels_m_s2": {sp.label: sp.level for sp in specs},
-        "modes": [{"frequency_hz": float(f), "damping_ratio": float(z)}
-                  for f, z in zip(model.frequency_hz, model.damping_ratio, strict=True)],
+        "modes": [
+            {"frequency_hz": float(f), "damping_ratio": float(z)}
+            for f, z in zip(model.frequency_hz, model.damping_ratio, strict=True)
+        ],
         "relative_masses": {c: float(m) for c, m in zip(model.channels, model.masses, strict=True)},
         "masses_estimated": bool(model.masses_estimated),
-        "significance": {"alpha": settings.alpha, "min_effect": settings.min_effect,
-                         "significant_cells": int(comp.significant.sum()), "cells": int(comp.significant.size)},
+        "significance": {
+            "alpha": settings.alpha,
+            "min_effect": settings.min_effect,
+            "significant_cells": int(comp.significant.sum()),
+            "cells": int(comp.significant.size),
+        },
     }
     if figures is not None:
-        figures.update(channels=list(layout.channels), freq_hz=ref.freq_hz, labels=[sp.label for sp in specs],
-                       levels=comp.levels, residual_map=comp.residual_map, bands_hz=comp.bands_hz,
-                       measured={sp.label: sp.T for sp in specs}, train=[specs[i].label for i in tr_idx],
-                       holdout=[specs[i].label for i in ho_idx])
+        figures.update(
+            channels=list(layout.channels),
+            freq_hz=ref.freq_hz,
+            labels=[sp.label for sp in specs],
+            levels=comp.levels,
+            residual_map=comp.residual_map,
+            bands_hz=comp.bands_hz,
+            measured={sp.label: sp.T for sp in specs},
+            train=[specs[i].label for i in tr_idx],
+            holdout=[specs[i].label for i in ho_idx],
+        )
     sig_rec = comp.significant.any(axis=(1, 2))
     if not sig_rec.any():
         meta["wall_time_s"] = time.perf_counter() - t_start
-        meta["summary"] = ("no missing physics found: every recording agrees with the linear modal model of "
-                           "the reference within its own noise")
+        meta["summary"] = (
+            "no missing physics found: every recording agrees with the linear modal model of "
+            "the reference within its own noise"
+        )
         return Diagnosis(False, (), (), meta)
 
     # ---- locate
@@ -1299,20 +1478,32 @@ def diagnose_generic(reference: Recording, train: Sequence[Recording], holdout: 
     sig_bands = comp.significant.any(axis=(0, 1))
     mband = (float(comp.bands_hz[sig_bands, 0].min()), float(comp.bands_hz[sig_bands, 1].max()))
     masks = [(sp.freq_hz >= mband[0]) & (sp.freq_hz <= mband[1]) for sp in specs]
-    worst = comp.statistic.mean(axis=(1, 2))
     lv = comp.levels
     higher = lv > 1.2 * ref.level
     level_dep = bool(np.any(sig_rec & higher)) and not bool(np.any(sig_rec & ~higher))
-    if np.sum(sig_rec) >= 2:
-        order = np.argsort(lv)
-        level_dep = level_dep and bool(worst[order][-1] >= 0.5 * worst[order].max())
+    # with several mismatching recordings, the mismatch must also grow with the level (a constant
+    # difference, e.g. a sensor gain, is not level dependent)
+    size = comp.rel_error.mean(axis=(1, 2))
+    sig_lv = np.flatnonzero(sig_rec)
+    if sig_lv.size >= 2:
+        lo_i, hi_i = sig_lv[np.argmin(lv[sig_lv])], sig_lv[np.argmax(lv[sig_lv])]
+        if lv[hi_i] >= 1.5 * lv[lo_i]:
+            level_dep = level_dep and bool(size[hi_i] >= 1.5 * size[lo_i])
     fit_idx = [i for i in tr_idx if sig_rec[i]]
-    say(f"locate: mismatch at {', '.join(sensors)} in {mband[0]:.3g}-{mband[1]:.3g} Hz"
-        f"{', growing with level' if level_dep else ''}; searching {len(itfs)} interface(s)")
+    say(
+        f"locate: mismatch at {', '.join(sensors)} in {mband[0]:.3g}-{mband[1]:.3g} Hz"
+        f"{', growing with level' if level_dep else ''}; searching {len(itfs)} interface(s)"
+    )
     if not fit_idx:
-        return _only_unexplained(meta, t_start, sensors, mband, level_dep,
-                                 "the training recordings show no significant mismatch (only the held-out "
-                                 "ones do), so nothing can be fitted; train on a level that shows it")
+        return _only_unexplained(
+            meta,
+            t_start,
+            sensors,
+            mband,
+            level_dep,
+            "the training recordings show no significant mismatch (only the held-out "
+            "ones do), so nothing can be fitted; train on a level that shows it",
+        )
     scores = []
     for name, pair in itfs.items():
         el = _EL(model, pair, specs, kerns)
@@ -1325,7 +1516,6 @@ def diagnose_generic(reference: Recording, train: Sequence[Recording], holdout: 
     # a local stiffness change must explain most of the excess of chi2 over its expectation (n_res)
     explained = (chi0 - chi_best) / max(chi0 - n_res, 1e-12)
     located = chi0 > n_res and explained > 0.5
-    runner = scores[1] if len(scores) > 1 else None
     meta["interface_search"] = [{"interface": s[1], "chi2": float(s[0])} for s in scores[:5]]
     meta["chi2_nominal"] = float(chi0)
     meta["chi2_expected"] = n_res
@@ -1334,16 +1524,32 @@ def diagnose_generic(reference: Recording, train: Sequence[Recording], holdout: 
     shifts = []
     for i, dk in zip(fit_idx, dk_levels, strict=True):
         f, z, mac = _modal_shifts(model, pair, el.k_link * dk)
-        shifts.append({"recording": specs[i].label, "level_m_s2": float(lv[i]),
-                       "link_stiffness_change": [float(dk.real), float(dk.imag)],
-                       "frequency_hz": f.tolist(), "damping_ratio": z.tolist(), "mac": mac.tolist()})
+        shifts.append(
+            {
+                "recording": specs[i].label,
+                "level_m_s2": float(lv[i]),
+                "link_stiffness_change": [float(dk.real), float(dk.imag)],
+                "frequency_hz": f.tolist(),
+                "damping_ratio": z.tolist(),
+                "mac": mac.tolist(),
+            }
+        )
     meta["paired_modes"] = shifts
     if not located:
-        return _only_unexplained(meta, t_start, sensors, mband, level_dep,
-                                 "no single interface explains the mismatch with a local stiffness change "
-                                 f"(best {itf_name}: chi2 {chi_best:.3g} vs {chi0:.3g} nominal)")
-    location = {"sensors": sensors, "component": itf_name if declared and not _is_pair_name(itf_name, pair)
-                else None, "interface": f"{pair[0]}-{pair[1]}"}
+        return _only_unexplained(
+            meta,
+            t_start,
+            sensors,
+            mband,
+            level_dep,
+            "no single interface explains the mismatch with a local stiffness change "
+            f"(best {itf_name}: chi2 {chi_best:.3g} vs {chi0:.3g} nominal)",
+        )
+    location = {
+        "sensors": sensors,
+        "component": itf_name if declared and not _is_pair_name(itf_name, pair) else None,
+        "interface": f"{pair[0]}-{pair[1]}",
+    }
 
     # ---- name and fit
     w_ref = _mean_omega(el, 0, model)
@@ -1351,7 +1557,9 @@ def diagnose_generic(reference: Recording, train: Sequence[Recording], holdout: 
     substeps = max(settings.substeps, math.ceil(1.0 / (ref.rate_hz * settings.max_step_s) - 1e-9))
     tsim = _TimeSim(model, specs, substeps)
     all_idx = tr_idx + ho_idx
-    nominal = {i: _rel_error(_sim_T(specs, i, tsim.acc_lin[i], settings), specs[i], masks[i]) for i in all_idx}
+    nominal = {
+        i: _rel_error(_sim_T(specs, i, tsim.acc_lin[i], settings), specs[i], masks[i]) for i in all_idx
+    }
     cands = []
     for law in CANDIDATES.values():
         c = _Candidate(law, signature_score=_signature_score(law, dk_levels))
@@ -1365,8 +1573,20 @@ def diagnose_generic(reference: Recording, train: Sequence[Recording], holdout: 
             c.rejected = "the equivalent-linear fit failed"
             continue
         cache: dict = {}
-        theta, std, chi, n_r, max_corr = _time_fit(tsim, pair, law, th_el, fit_idx, specs, masks, settings,
-                                                   sigma_ref, w_ref, extra=all_idx, cache=cache)
+        theta, std, chi, n_r, max_corr = _time_fit(
+            tsim,
+            pair,
+            law,
+            th_el,
+            fit_idx,
+            specs,
+            masks,
+            settings,
+            sigma_ref,
+            w_ref,
+            extra=all_idx,
+            cache=cache,
+        )
         if theta is None:
             c.rejected = "the time simulation diverged"
             continue
@@ -1402,41 +1622,83 @@ def diagnose_generic(reference: Recording, train: Sequence[Recording], holdout: 
         chosen = min(close, key=lambda c: c.bic)
         for c in ok:
             if c is not chosen:
-                c.rejected = (f"explains less: held-out error {c.holdout_after:.3g} vs {chosen.holdout_after:.3g}, "
-                              f"BIC {c.bic:.4g} vs {chosen.bic:.4g}")
-    meta["candidates"] = [{"physics": c.law.name, "signature_score": c.signature_score, "bic": c.bic,
-                           "holdout_after": c.holdout_after,
-                           "parameters": None if c.theta is None else c.theta.tolist(),
-                           "rejected": c.rejected or None} for c in cands]
+                c.rejected = (
+                    f"explains less: held-out error {c.holdout_after:.3g} vs {chosen.holdout_after:.3g}, "
+                    f"BIC {c.bic:.4g} vs {chosen.bic:.4g}"
+                )
+    meta["candidates"] = [
+        {
+            "physics": c.law.name,
+            "signature_score": c.signature_score,
+            "bic": c.bic,
+            "holdout_after": c.holdout_after,
+            "parameters": None if c.theta is None else c.theta.tolist(),
+            "rejected": c.rejected or None,
+        }
+        for c in cands
+    ]
     meta["wall_time_s"] = time.perf_counter() - t_start
     if figures is not None:
-        figures.update(located_sensors=list(pair if pair[0] != GROUND else pair[1:]), interface=location["interface"],
-                       nominal_T={specs[i].label: _sim_T(specs, i, tsim.acc_lin[i], settings) for i in all_idx})
+        figures.update(
+            located_sensors=list(pair if pair[0] != GROUND else pair[1:]),
+            interface=location["interface"],
+            nominal_T={specs[i].label: _sim_T(specs, i, tsim.acc_lin[i], settings) for i in all_idx},
+        )
     if chosen is None:
         tried = "; ".join(f"{c.law.name}: {c.rejected}" for c in cands)
-        return _only_unexplained(meta, t_start, sensors, mband, level_dep,
-                                 f"the mismatch is located at interface {pair[0]}-{pair[1]} but no candidate "
-                                 f"explains it ({tried})", location)
+        return _only_unexplained(
+            meta,
+            t_start,
+            sensors,
+            mband,
+            level_dep,
+            f"the mismatch is located at interface {pair[0]}-{pair[1]} but no candidate "
+            f"explains it ({tried})",
+            location,
+        )
     law, theta = chosen.law, chosen.theta
     after_T = {specs[i].label: _sim_T(specs, i, chosen.accs[i], settings) for i in all_idx}
     if figures is not None:
         figures.update(after_T=after_T, physics=law.name)
-    per_channel = {specs[i].label: {ch: {"before": float(nominal[i][s]), "after": float(chosen.errors[i][s])}
-                                    for s, ch in enumerate(layout.channels)} for i in all_idx}
+    per_channel = {
+        specs[i].label: {
+            ch: {"before": float(nominal[i][s]), "after": float(chosen.errors[i][s])}
+            for s, ch in enumerate(layout.channels)
+        }
+        for i in all_idx
+    }
     fit = {
         "train_before": float(np.mean([nominal[i].mean() for i in tr_idx])),
         "train_after": float(np.mean([chosen.errors[i].mean() for i in tr_idx])),
         "holdout_before": float(np.mean([nominal[i].mean() for i in ho_idx])),
         "holdout_after": float(np.mean([chosen.errors[i].mean() for i in ho_idx])),
-        "metric": (f"relative FRF error ||T_sim - T_meas|| / ||T_meas|| in {mband[0]:.3g}-{mband[1]:.3g} Hz, "
-                   "mean over channels and recordings; T = H1 transmissibility (response per drive "
-                   "acceleration) of the time-simulated model driven by the recorded drive"),
+        "metric": (
+            f"relative FRF error ||T_sim - T_meas|| / ||T_meas|| in {mband[0]:.3g}-{mband[1]:.3g} Hz, "
+            "mean over channels and recordings; T = H1 transmissibility (response per drive "
+            "acceleration) of the time-simulated model driven by the recorded drive"
+        ),
         "per_channel": per_channel,
     }
-    params = {p.name: {"value": float(t), "unit": p.unit, "std": float(s) if math.isfinite(s) else None}
-              for p, t, s in zip(law.params, theta, chosen.std, strict=True)}
-    expl = _explain(chosen, cands, pair, sensors, mband, shifts, model, comp, fit, specs, tr_idx, ho_idx,
-                    level_dep, sigmas)
+    params = {
+        p.name: {"value": float(t), "unit": p.unit, "std": float(s) if math.isfinite(s) else None}
+        for p, t, s in zip(law.params, theta, chosen.std, strict=True)
+    }
+    expl = _explain(
+        chosen,
+        cands,
+        pair,
+        sensors,
+        mband,
+        shifts,
+        model,
+        comp,
+        fit,
+        specs,
+        tr_idx,
+        ho_idx,
+        level_dep,
+        sigmas,
+    )
     finding = Finding(law.name, location, mband, level_dep, expl, params, fit)
     meta["summary"] = f"{law.name} at {pair[0]}-{pair[1]}"
     meta["wall_time_s"] = time.perf_counter() - t_start
@@ -1460,54 +1722,90 @@ def _only_unexplained(meta, t_start, sensors, band, level_dep, why, location=Non
     loc = location or {"sensors": sensors, "component": None, "interface": None}
     meta["wall_time_s"] = time.perf_counter() - t_start
     meta["summary"] = "mismatch found, unexplained"
-    item = {"location": loc, "band_hz": list(band), "level_dependent": level_dep,
-            "explanation": (f"Significant mismatch at {', '.join(sensors)} in {band[0]:.3g}-{band[1]:.3g} Hz"
-                            f"{' that grows with the excitation level' if level_dep else ''}; {why}.")}
+    item = {
+        "location": loc,
+        "band_hz": list(band),
+        "level_dependent": level_dep,
+        "explanation": (
+            f"Significant mismatch at {', '.join(sensors)} in {band[0]:.3g}-{band[1]:.3g} Hz"
+            f"{' that grows with the excitation level' if level_dep else ''}; {why}."
+        ),
+    }
     return Diagnosis(True, (), (item,), meta)
 
 
-def _explain(chosen: _Candidate, cands, pair, sensors, band, shifts, model, comp, fit, specs, tr_idx, ho_idx,
-             level_dep, sigmas) -> str:
+def _explain(
+    chosen: _Candidate,
+    cands,
+    pair,
+    sensors,
+    band,
+    shifts,
+    model,
+    comp,
+    fit,
+    specs,
+    tr_idx,
+    ho_idx,
+    level_dep,
+    sigmas,
+) -> str:
     law, theta = chosen.law, chosen.theta
     top = shifts[-1] if shifts else None
     parts = []
     lv = comp.levels
-    parts.append(f"The measured response differs from the linear model of the lowest-level recording "
-                 f"({_fmt_level(lv[0])} rms drive acceleration) at {', '.join(sensors)} in "
-                 f"{band[0]:.3g}-{band[1]:.3g} Hz" + (", and the difference grows with the level." if level_dep
-                                                         else "."))
+    parts.append(
+        f"The measured response differs from the linear model of the lowest-level recording "
+        f"({_fmt_level(lv[0])} rms drive acceleration) at {', '.join(sensors)} in "
+        f"{band[0]:.3g}-{band[1]:.3g} Hz"
+        + (", and the difference grows with the level." if level_dep else ".")
+    )
     if top is not None:
         f0, f1 = model.frequency_hz, np.array(top["frequency_hz"])
         z0, z1 = model.damping_ratio, np.array(top["damping_ratio"])
         r = int(np.argmax(np.abs(f1 - f0) / f0))
-        parts.append(f"At {_fmt_level(top['level_m_s2'])} the mode at {f0[r]:.3g} Hz has moved to {f1[r]:.3g} Hz "
-                     f"and its damping from {100 * z0[r]:.2g} % to {100 * z1[r]:.2g} %.")
+        parts.append(
+            f"At {_fmt_level(top['level_m_s2'])} the mode at {f0[r]:.3g} Hz has moved to {f1[r]:.3g} Hz "
+            f"and its damping from {100 * z0[r]:.2g} % to {100 * z1[r]:.2g} %."
+        )
     coh0, coh1 = comp.coherence[0].mean(), comp.coherence[int(np.argmax(lv))].mean()
     if coh1 < coh0 - 0.02:
-        parts.append(f"The coherence falls from {coh0:.2f} to {coh1:.2f} at the highest level although the noise "
-                     "is relatively smaller there: the response contains distortion a linear model cannot make.")
+        parts.append(
+            f"The coherence falls from {coh0:.2f} to {coh1:.2f} at the highest level although the noise "
+            "is relatively smaller there: the response contains distortion a linear model cannot make."
+        )
     itf = f"{pair[0]}-{pair[1]}" if pair[0] != GROUND else f"{pair[1]} and the table"
-    parts.append(f"A local element across {itf} explains it best (relative motion rms "
-                 f"{1e6 * sigmas[0]:.3g} um at the lowest and {1e6 * sigmas.max():.3g} um at the highest level).")
+    parts.append(
+        f"A local element across {itf} explains it best (relative motion rms "
+        f"{1e6 * sigmas[0]:.3g} um at the lowest and {1e6 * sigmas.max():.3g} um at the highest level)."
+    )
     desc = {p.name: t for p, t in zip(law.params, theta, strict=True)}
     if law.name == "joint_friction":
-        parts.append(f"It is friction micro-slip: {100 * desc['slip_share']:.2g} % of the joint's stiffness "
-                     f"acts through a contact that slips above {1e6 * desc['slip_displacement_m']:.3g} um of "
-                     "relative motion; as the level rises more of the contact slips, so the joint softens "
-                     "(frequencies drop) and dissipates energy (damping rises).")
+        parts.append(
+            f"It is friction micro-slip: {100 * desc['slip_share']:.2g} % of the joint's stiffness "
+            f"acts through a contact that slips above {1e6 * desc['slip_displacement_m']:.3g} um of "
+            "relative motion; as the level rises more of the contact slips, so the joint softens "
+            "(frequencies drop) and dissipates energy (damping rises)."
+        )
     elif law.name == "joint_stiffening":
         k3 = desc["cubic_ratio_per_m2"]
-        parts.append(f"It is a hardening joint: its stiffness grows with the square of the relative motion "
-                     f"(cubic term, +{100 * 3 * k3 * sigmas.max() ** 2:.2g} % equivalent stiffness at the "
-                     "highest level), so the frequencies rise with level while the damping stays.")
+        parts.append(
+            f"It is a hardening joint: its stiffness grows with the square of the relative motion "
+            f"(cubic term, +{100 * 3 * k3 * sigmas.max() ** 2:.2g} % equivalent stiffness at the "
+            "highest level), so the frequencies rise with level while the damping stays."
+        )
     else:
-        parts.append(f"It is a clearance: inside +-{1e6 * desc['gap_m']:.3g} um the joint is free; beyond it "
-                     f"contact adds {100 * desc['contact_ratio']:.2g} % of the joint's stiffness, so the "
-                     "frequencies rise once the gap closes at higher levels.")
+        parts.append(
+            f"It is a clearance: inside +-{1e6 * desc['gap_m']:.3g} um the joint is free; beyond it "
+            f"contact adds {100 * desc['contact_ratio']:.2g} % of the joint's stiffness, so the "
+            "frequencies rise once the gap closes at higher levels."
+        )
     others = [f"{c.law.name} ({c.rejected})" for c in cands if c is not chosen and c.rejected]
     if others:
         parts.append("Rejected: " + "; ".join(others) + ".")
-    parts.append(f"Fitted on {len(tr_idx)} training recording(s); on the held-out recording(s) the FRF error "
-                 f"falls from {fit['holdout_before']:.3g} to {fit['holdout_after']:.3g} "
-                 f"(training: {fit['train_before']:.3g} -> {fit['train_after']:.3g}).")
+    parts.append(
+        f"Fitted on {len(tr_idx)} training recording(s); on the held-out recording(s) the FRF error "
+        f"falls from {fit['holdout_before']:.3g} to {fit['holdout_after']:.3g} "
+        f"(training: {fit['train_before']:.3g} -> {fit['train_after']:.3g})."
+    )
     return " ".join(parts)

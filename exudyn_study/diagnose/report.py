@@ -70,19 +70,25 @@ def _residual_map(data: Mapping, path: Path) -> Path | None:
     vmax = max(2.0, float(np.nanpercentile(z, 99.5)))
     im = None
     for ax, i, zi in zip(axes, keep, z, strict=True):
-        im = ax.pcolormesh(freq, np.arange(len(chans)), zi, vmin=-1.0, vmax=vmax, cmap="magma",
-                           shading="nearest")
+        im = ax.pcolormesh(
+            freq, np.arange(len(chans)), zi, vmin=-1.0, vmax=vmax, cmap="magma", shading="nearest"
+        )
         ax.set_yticks(range(len(chans)))
         ax.set_yticklabels(chans, fontsize=7)
-        role = "held-out" if labels[i] in data.get("holdout", []) else (
-            "train" if labels[i] in data.get("train", []) else "reference")
-        ax.set_ylabel(f"{labels[i]}\n{levels[i]:.3g} m/s$^2$\n({role})", fontsize=7, rotation=0, ha="right",
-                      va="center")
+        role = (
+            "held-out"
+            if labels[i] in data.get("holdout", [])
+            else ("train" if labels[i] in data.get("train", []) else "reference")
+        )
+        ax.set_ylabel(
+            f"{labels[i]}\n{levels[i]:.3g} m/s$^2$\n({role})", fontsize=7, rotation=0, ha="right", va="center"
+        )
         for lo, _ in np.asarray(data.get("bands_hz", []))[1:]:
             ax.axvline(lo, color="w", lw=0.5, alpha=0.5)
     axes[-1].set_xlabel("frequency (Hz)")
-    axes[0].set_title("residual vs nominal model: log10(|T_model - T|^2 / sigma^2)  (0: at the noise level)",
-                      fontsize=9)
+    axes[0].set_title(
+        "residual vs nominal model: log10(|T_model - T|^2 / sigma^2)  (0: at the noise level)", fontsize=9
+    )
     fig.colorbar(im, ax=list(axes), shrink=0.8, label="log10 residual / noise")
     return _save(fig, path)
 
@@ -93,8 +99,11 @@ def _frf_overlay(data: Mapping, path: Path) -> Path | None:
     measured = data.get("measured") or {}
     chans = list(data.get("channels", []))
     sensors = [s for s in data.get("located_sensors", []) if s in chans][:3]
-    recs = [lab for lab in list(data.get("holdout", [])) + list(data.get("train", []))
-            if lab in measured and (lab in after or lab in nominal)]
+    recs = [
+        lab
+        for lab in list(data.get("holdout", [])) + list(data.get("train", []))
+        if lab in measured and (lab in after or lab in nominal)
+    ]
     recs = list(dict.fromkeys(recs))[:3]
     if not sensors or not recs:
         return None
@@ -110,8 +119,13 @@ def _frf_overlay(data: Mapping, path: Path) -> Path | None:
             if nominal.get(lab) is not None:
                 ax.semilogy(freq, np.abs(nominal[lab][si]), color="tab:red", lw=0.9, ls="--", label="nominal")
             if after.get(lab) is not None:
-                ax.semilogy(freq, np.abs(after[lab][si]), color="tab:blue", lw=0.9,
-                            label=f"with {data.get('physics', 'fit')}")
+                ax.semilogy(
+                    freq,
+                    np.abs(after[lab][si]),
+                    color="tab:blue",
+                    lw=0.9,
+                    label=f"with {data.get('physics', 'fit')}",
+                )
             role = "held-out" if lab in data.get("holdout", []) else "train"
             lv = levels.get(lab, np.nan)
             ax.set_title(f"{s}, {lab} ({role}, {lv:.3g} m/s$^2$)", fontsize=8)
@@ -137,8 +151,12 @@ def _errors(diagnosis: Diagnosis, data: Mapping, path: Path) -> Path | None:
     ax = fig.subplots()
     x = np.arange(len(chans))
     width = 0.2
-    colours = {("train", "before"): "#f4a582", ("train", "after"): "#92c5de",
-               ("held-out", "before"): "#ca0020", ("held-out", "after"): "#0571b0"}
+    colours = {
+        ("train", "before"): "#f4a582",
+        ("train", "after"): "#92c5de",
+        ("held-out", "before"): "#ca0020",
+        ("held-out", "after"): "#0571b0",
+    }
     k = 0
     for g, labs in groups.items():
         labs = [lab for lab in labs if lab in per]
@@ -151,8 +169,9 @@ def _errors(diagnosis: Diagnosis, data: Mapping, path: Path) -> Path | None:
     ax.set_xticks(x)
     ax.set_xticklabels(chans)
     ax.set_ylabel("relative FRF error (-)")
-    ax.set_title(f"FRF error per channel, nominal (before) vs with {diagnosis.findings[0].physics} (after)",
-                 fontsize=9)
+    ax.set_title(
+        f"FRF error per channel, nominal (before) vs with {diagnosis.findings[0].physics} (after)", fontsize=9
+    )
     ax.legend(fontsize=7, ncol=2)
     ax.grid(True, axis="y", alpha=0.3)
     return _save(fig, path)
@@ -170,8 +189,12 @@ def _pseudo_damage(data: Mapping, path: Path) -> Path | None:
     width = 0.8 / max(len(kinds), 1)
     names = {"measured": "measured", "before": "nominal model", "after": "with the fitted physics"}
     for j, k in enumerate(kinds):
-        ax.bar(x + (j - (len(kinds) - 1) / 2) * width, [pd[c].get(k, np.nan) for c in chans], width,
-               label=names[k])
+        ax.bar(
+            x + (j - (len(kinds) - 1) / 2) * width,
+            [pd[c].get(k, np.nan) for c in chans],
+            width,
+            label=names[k],
+        )
     ax.set_xticks(x)
     ax.set_xticklabels(chans, rotation=45, ha="right", fontsize=7)
     ax.set_ylabel("relative pseudo damage (-)")
@@ -194,7 +217,9 @@ def _fmt(v) -> str:
     return str(v)
 
 
-def write_report(diagnosis: Diagnosis, out_dir: str | os.PathLike, figures_data: Mapping | None = None) -> Path:
+def write_report(
+    diagnosis: Diagnosis, out_dir: str | os.PathLike, figures_data: Mapping | None = None
+) -> Path:
     """Write ``index.html`` and the figures of ``diagnosis`` into ``out_dir``.
 
     Parameters
@@ -233,40 +258,78 @@ def write_report(diagnosis: Diagnosis, out_dir: str | os.PathLike, figures_data:
         "pseudo_damage.png": _pseudo_damage(data, out / "pseudo_damage.png"),
     }
     meta = diagnosis.metadata
-    parts = ["<!DOCTYPE html><html><head><meta charset='utf-8'><title>exudyn_study diagnosis</title>",
-             "<style>body{font-family:sans-serif;max-width:1100px;margin:auto}table{border-collapse:collapse}"
-             "td,th{border:1px solid #bbb;padding:3px 8px;font-size:90%}img{max-width:100%}</style></head><body>",
-             "<h1>Diagnosis</h1>",
-             f"<p><b>{html.escape(diagnosis.summary)}</b></p>"]
+    parts = [
+        "<!DOCTYPE html><html><head><meta charset='utf-8'><title>exudyn_study diagnosis</title>",
+        "<style>body{font-family:sans-serif;max-width:1100px;margin:auto}table{border-collapse:collapse}"
+        "td,th{border:1px solid #bbb;padding:3px 8px;font-size:90%}img{max-width:100%}</style></head><body>",
+        "<h1>Diagnosis</h1>",
+        f"<p><b>{html.escape(diagnosis.summary)}</b></p>",
+    ]
     if meta:
-        rows = [(k, meta[k]) for k in ("model", "reference", "train", "holdout", "band_hz", "wall_time_s")
-                if k in meta]
-        parts.append(_table([(k, _fmt(v) if not isinstance(v, list) else ", ".join(map(_fmt, v)))
-                             for k, v in rows], ("input", "value")))
+        rows = [
+            (k, meta[k])
+            for k in ("model", "reference", "train", "holdout", "band_hz", "wall_time_s")
+            if k in meta
+        ]
+        parts.append(
+            _table(
+                [(k, _fmt(v) if not isinstance(v, list) else ", ".join(map(_fmt, v))) for k, v in rows],
+                ("input", "value"),
+            )
+        )
         if "levels_m_s2" in meta:
             parts.append("<h3>Excitation levels</h3>")
-            parts.append(_table([(k, _fmt(v)) for k, v in meta["levels_m_s2"].items()],
-                                ("recording", "drive acceleration rms (m/s^2)")))
+            parts.append(
+                _table(
+                    [(k, _fmt(v)) for k, v in meta["levels_m_s2"].items()],
+                    ("recording", "drive acceleration rms (m/s^2)"),
+                )
+            )
     for f in diagnosis.findings:
         parts.append(f"<h2>Finding: {html.escape(f.physics)}</h2>")
         loc = f.location
-        parts.append(_table([("interface", loc.get("interface") or "-"), ("component", loc.get("component") or "-"),
-                             ("sensors", ", ".join(loc["sensors"])),
-                             ("band (Hz)", "-" if f.band_hz is None else f"{f.band_hz[0]:.4g}-{f.band_hz[1]:.4g}"),
-                             ("level dependent", "yes" if f.level_dependent else "no")], ("where", "")))
+        parts.append(
+            _table(
+                [
+                    ("interface", loc.get("interface") or "-"),
+                    ("component", loc.get("component") or "-"),
+                    ("sensors", ", ".join(loc["sensors"])),
+                    ("band (Hz)", "-" if f.band_hz is None else f"{f.band_hz[0]:.4g}-{f.band_hz[1]:.4g}"),
+                    ("level dependent", "yes" if f.level_dependent else "no"),
+                ],
+                ("where", ""),
+            )
+        )
         parts.append(f"<p>{html.escape(f.explanation)}</p>")
-        parts.append(_table([(k, _fmt(p["value"]), p["unit"], _fmt(p["std"])) for k, p in f.parameters.items()],
-                            ("parameter", "value", "unit", "std")))
+        parts.append(
+            _table(
+                [(k, _fmt(p["value"]), p["unit"], _fmt(p["std"])) for k, p in f.parameters.items()],
+                ("parameter", "value", "unit", "std"),
+            )
+        )
         parts.append("<h3>Error before and after</h3>")
-        parts.append(_table([("training", _fmt(f.fit["train_before"]), _fmt(f.fit["train_after"])),
-                             ("held-out", _fmt(f.fit["holdout_before"]), _fmt(f.fit["holdout_after"]))],
-                            ("recordings", "nominal model", "with the fitted physics")))
+        parts.append(
+            _table(
+                [
+                    ("training", _fmt(f.fit["train_before"]), _fmt(f.fit["train_after"])),
+                    ("held-out", _fmt(f.fit["holdout_before"]), _fmt(f.fit["holdout_after"])),
+                ],
+                ("recordings", "nominal model", "with the fitted physics"),
+            )
+        )
         parts.append(f"<p><small>metric: {html.escape(str(f.fit['metric']))}</small></p>")
         per = f.fit.get("per_channel") or {}
         if per:
-            rows = [(lab, ch, _fmt(v["before"]), _fmt(v["after"])) for lab, d in per.items() for ch, v in d.items()]
-            parts.append("<details><summary>per recording and channel</summary>"
-                         + _table(rows, ("recording", "channel", "before", "after")) + "</details>")
+            rows = [
+                (lab, ch, _fmt(v["before"]), _fmt(v["after"]))
+                for lab, d in per.items()
+                for ch, v in d.items()
+            ]
+            parts.append(
+                "<details><summary>per recording and channel</summary>"
+                + _table(rows, ("recording", "channel", "before", "after"))
+                + "</details>"
+            )
     for u in diagnosis.unexplained:
         parts.append("<h2>Unexplained mismatch</h2>")
         parts.append(f"<p>{html.escape(u.get('explanation', ''))}</p>")
@@ -277,11 +340,25 @@ def write_report(diagnosis: Diagnosis, out_dir: str | os.PathLike, figures_data:
             parts.append(f"<h3>{html.escape(name[:-4].replace('_', ' '))}</h3><img src='{name}'>")
     if meta.get("candidates"):
         parts.append("<h3>Candidates</h3>")
-        parts.append(_table([(c["physics"], _fmt(c.get("signature_score")), _fmt(c.get("bic")),
-                              c.get("rejected") or "accepted") for c in meta["candidates"]],
-                            ("physics", "signature score", "BIC (train)", "status")))
-    parts.append("<details><summary>diagnosis JSON</summary><pre>"
-                 + html.escape(json.dumps(diagnosis.to_dict(), indent=1)) + "</pre></details>")
+        parts.append(
+            _table(
+                [
+                    (
+                        c["physics"],
+                        _fmt(c.get("signature_score")),
+                        _fmt(c.get("bic")),
+                        c.get("rejected") or "accepted",
+                    )
+                    for c in meta["candidates"]
+                ],
+                ("physics", "signature score", "BIC (train)", "status"),
+            )
+        )
+    parts.append(
+        "<details><summary>diagnosis JSON</summary><pre>"
+        + html.escape(json.dumps(diagnosis.to_dict(), indent=1))
+        + "</pre></details>"
+    )
     parts.append("</body></html>")
     index = out / "index.html"
     fd, tmp = tempfile.mkstemp(prefix="index.html.", suffix=".tmp", dir=out)

@@ -42,8 +42,7 @@ from pathlib import Path
 
 from ..errors import InputError
 
-__all__ = ["Finding", "Diagnosis", "read_json", "FORMAT_NAME", "FORMAT_VERSION", "FIT_KEYS",
-           "LOCATION_KEYS"]
+__all__ = ["Finding", "Diagnosis", "read_json", "FORMAT_NAME", "FORMAT_VERSION", "FIT_KEYS", "LOCATION_KEYS"]
 
 FORMAT_NAME = "exudyn_study.diagnosis"
 FORMAT_VERSION = 1
@@ -145,9 +144,11 @@ class Finding:
         for name, p in dict(self.parameters).items():
             if not isinstance(p, Mapping) or "value" not in p or "unit" not in p:
                 raise InputError(f"{who}: parameter {name!r} = {p!r}; expected {{'value', 'unit', 'std'}}")
-            params[str(name)] = {"value": _number(p["value"], f"{who}: parameter {name!r} value", False),
-                                 "unit": str(p["unit"]),
-                                 "std": _number(p.get("std"), f"{who}: parameter {name!r} std")}
+            params[str(name)] = {
+                "value": _number(p["value"], f"{who}: parameter {name!r} value", False),
+                "unit": str(p["unit"]),
+                "std": _number(p.get("std"), f"{who}: parameter {name!r} std"),
+            }
         object.__setattr__(self, "parameters", params)
         fit = dict(self.fit)
         missing = [k for k in FIT_KEYS if k not in fit]
@@ -161,10 +162,15 @@ class Finding:
 
     def to_dict(self) -> dict:
         """JSON-ready dict of the module schema."""
-        return {"physics": self.physics, "location": dict(self.location),
-                "band_hz": None if self.band_hz is None else list(self.band_hz),
-                "level_dependent": self.level_dependent, "explanation": self.explanation,
-                "parameters": {k: dict(v) for k, v in self.parameters.items()}, "fit": _jsonable(self.fit)}
+        return {
+            "physics": self.physics,
+            "location": dict(self.location),
+            "band_hz": None if self.band_hz is None else list(self.band_hz),
+            "level_dependent": self.level_dependent,
+            "explanation": self.explanation,
+            "parameters": {k: dict(v) for k, v in self.parameters.items()},
+            "fit": _jsonable(self.fit),
+        }
 
     @classmethod
     def from_dict(cls, d: Mapping) -> Finding:
@@ -220,8 +226,10 @@ class Diagnosis:
             unexplained.append(item)
         mismatch = bool(self.mismatch_found)
         if not mismatch and (findings or unexplained):
-            raise InputError("diagnosis: mismatch_found is False but findings or unexplained mismatch are "
-                             "given; expected both empty")
+            raise InputError(
+                "diagnosis: mismatch_found is False but findings or unexplained mismatch are "
+                "given; expected both empty"
+            )
         try:
             json.dumps(_jsonable(dict(self.metadata)))
         except (TypeError, ValueError) as exc:
@@ -236,37 +244,53 @@ class Diagnosis:
         """One line: 'no missing physics found' or the named physics and unexplained count."""
         if not self.mismatch_found:
             return "no missing physics found"
-        parts = [f"{f.physics} at {f.location.get('interface') or ', '.join(f.location['sensors'])}"
-                 for f in self.findings]
+        parts = [
+            f"{f.physics} at {f.location.get('interface') or ', '.join(f.location['sensors'])}"
+            for f in self.findings
+        ]
         if self.unexplained:
             parts.append(f"{len(self.unexplained)} unexplained mismatch(es)")
         return "; ".join(parts) or "mismatch found"
 
     def to_dict(self) -> dict:
         """JSON-ready dict of the module schema."""
-        return {"format": FORMAT_NAME, "format_version": FORMAT_VERSION,
-                "mismatch_found": self.mismatch_found, "findings": [f.to_dict() for f in self.findings],
-                "unexplained": _jsonable([dict(u) for u in self.unexplained]),
-                "metadata": _jsonable(self.metadata)}
+        return {
+            "format": FORMAT_NAME,
+            "format_version": FORMAT_VERSION,
+            "mismatch_found": self.mismatch_found,
+            "findings": [f.to_dict() for f in self.findings],
+            "unexplained": _jsonable([dict(u) for u in self.unexplained]),
+            "metadata": _jsonable(self.metadata),
+        }
 
     @classmethod
     def from_dict(cls, d: Mapping) -> Diagnosis:
         """Build from a dict of the module schema (a different format or newer version: InputError)."""
         if not isinstance(d, Mapping) or "mismatch_found" not in d:
-            raise InputError("diagnosis JSON: expected an object with 'mismatch_found', 'findings', 'unexplained'")
+            raise InputError(
+                "diagnosis JSON: expected an object with 'mismatch_found', 'findings', 'unexplained'"
+            )
         fmt = d.get("format", FORMAT_NAME)
         if fmt != FORMAT_NAME:
             raise InputError(f"diagnosis JSON: format {fmt!r}; expected {FORMAT_NAME!r}")
         ver = d.get("format_version", FORMAT_VERSION)
         if not isinstance(ver, int) or ver > FORMAT_VERSION:
-            raise InputError(f"diagnosis JSON: format_version {ver!r}; this version reads up to {FORMAT_VERSION}")
-        if not isinstance(d.get("findings", []), Sequence) or not isinstance(d.get("unexplained", []), Sequence):
+            raise InputError(
+                f"diagnosis JSON: format_version {ver!r}; this version reads up to {FORMAT_VERSION}"
+            )
+        if not isinstance(d.get("findings", []), Sequence) or not isinstance(
+            d.get("unexplained", []), Sequence
+        ):
             raise InputError("diagnosis JSON: 'findings' and 'unexplained' must be lists")
-        return cls(bool(d["mismatch_found"]), tuple(Finding.from_dict(f) for f in d.get("findings", [])),
-                   tuple(d.get("unexplained", [])), dict(d.get("metadata") or {}))
+        return cls(
+            bool(d["mismatch_found"]),
+            tuple(Finding.from_dict(f) for f in d.get("findings", [])),
+            tuple(d.get("unexplained", [])),
+            dict(d.get("metadata") or {}),
+        )
 
     def to_json(self) -> str:
-        """The JSON text (strict: NaN/inf written as null)."""
+        """Return the JSON text (strict: NaN/inf written as null)."""
         return json.dumps(self.to_dict(), indent=1, allow_nan=False)
 
     def write_json(self, path: str | os.PathLike) -> Path:

@@ -66,8 +66,13 @@ JOINTS = ("none", "friction", "stiffening", "clearance")
 SENSORS = ("A1", "A2", "B1", "B2", "B3")
 #: the bolted lap joint as a sensor pair across it
 INTERFACE = ("A2", "B1")
-_POSITIONS_M = {"A1": (0.2, 0.0, 0.0), "A2": (0.4, 0.0, 0.0), "B1": (0.45, 0.0, 0.0),
-                "B2": (0.65, 0.0, 0.0), "B3": (0.85, 0.0, 0.0)}
+_POSITIONS_M = {
+    "A1": (0.2, 0.0, 0.0),
+    "A2": (0.4, 0.0, 0.0),
+    "B1": (0.45, 0.0, 0.0),
+    "B2": (0.65, 0.0, 0.0),
+    "B3": (0.85, 0.0, 0.0),
+}
 
 
 @dataclass(frozen=True)
@@ -172,9 +177,9 @@ def _matrices(structure: TestStructure):
 
 
 def linear_system(structure: TestStructure | None = None):
-    """The structure as a :class:`~exudyn_study.modal.LinearSystem` (table = drive), absolute sensors.
+    """Return the structure as a :class:`~exudyn_study.modal.LinearSystem` (table = drive).
 
-    With ``joint='clearance'`` the caller lowers the joint spring itself (see :func:`joint_law`).
+    Sensors measure absolute accelerations; the joint spring is the small-amplitude stiffness.
 
     Returns
     -------
@@ -187,9 +192,18 @@ def linear_system(structure: TestStructure | None = None):
     mf, cf, kf = _matrices(structure)
     null = np.hstack([np.zeros((5, 1)), np.eye(5)])
     r = np.ones(6)
-    return LinearSystem(mass=null @ mf @ null.T, damping=null @ cf @ null.T, stiffness=null @ kf @ null.T,
-                        nullspace=null, drive_shape=r, b0=null @ kf @ r, b1=null @ cf @ r, b2=null @ mf @ r,
-                        sensor_map=null.copy(), sensor_names=SENSORS)
+    return LinearSystem(
+        mass=null @ mf @ null.T,
+        damping=null @ cf @ null.T,
+        stiffness=null @ kf @ null.T,
+        nullspace=null,
+        drive_shape=r,
+        b0=null @ kf @ r,
+        b1=null @ cf @ r,
+        b2=null @ mf @ r,
+        sensor_map=null.copy(),
+        sensor_names=SENSORS,
+    )
 
 
 def joint_law(joint: str, structure: TestStructure | None = None):
@@ -229,8 +243,13 @@ def joint_law(joint: str, structure: TestStructure | None = None):
     return structure, DeadZoneSpring(structure.contact_ratio * k_joint, structure.gap_m)
 
 
-def drive_signal(level: float, duration_s: float, sample_rate_hz: float, seed: int,
-                 band_hz: tuple[float, float] = (5.0, 120.0)) -> np.ndarray:
+def drive_signal(
+    level: float,
+    duration_s: float,
+    sample_rate_hz: float,
+    seed: int,
+    band_hz: tuple[float, float] = (5.0, 120.0),
+) -> np.ndarray:
     """Band-limited random table displacement (m) whose acceleration rms is ``level`` m/s^2.
 
     Flat acceleration spectrum in ``band_hz`` (random phases), a 0.5 s cosine fade-in.
@@ -249,10 +268,18 @@ def drive_signal(level: float, duration_s: float, sample_rate_hz: float, seed: i
     return u * fade
 
 
-def simulate_levels(joint: str = "friction", levels: Sequence[float] = (0.1, 0.3, 1.0, 3.0), *,
-                    structure: TestStructure | None = None, duration_s: float = 16.0,
-                    sample_rate_hz: float = 512.0, noise_m_s2: float = 0.01, seed: int = 0,
-                    substeps: int = 4, band_hz: tuple[float, float] = (5.0, 120.0)) -> list[Recording]:
+def simulate_levels(
+    joint: str = "friction",
+    levels: Sequence[float] = (0.1, 0.3, 1.0, 3.0),
+    *,
+    structure: TestStructure | None = None,
+    duration_s: float = 16.0,
+    sample_rate_hz: float = 512.0,
+    noise_m_s2: float = 0.01,
+    seed: int = 0,
+    substeps: int = 4,
+    band_hz: tuple[float, float] = (5.0, 120.0),
+) -> list[Recording]:
     """Simulate the test structure at several drive levels into recordings.
 
     Parameters
@@ -290,7 +317,9 @@ def simulate_levels(joint: str = "friction", levels: Sequence[float] = (0.1, 0.3
     gather[0, 2], gather[0, 3] = -1.0, 1.0  # delta = B1 - A2
     law = law if law is not None else CubicStiffening(0.0)
     if not 0 < band_hz[0] < band_hz[1] < sample_rate_hz / 2:
-        raise InputError(f"band_hz {band_hz!r}: expected 0 < low < high < Nyquist ({sample_rate_hz / 2:g} Hz)")
+        raise InputError(
+            f"band_hz {band_hz!r}: expected 0 < low < high < Nyquist ({sample_rate_hz / 2:g} Hz)"
+        )
     levels = [float(v) for v in levels]
     if not levels or min(levels) <= 0 or not all(math.isfinite(v) for v in levels):
         raise InputError(f"levels {levels!r}: expected positive accelerations in m/s^2")
@@ -302,9 +331,20 @@ def simulate_levels(joint: str = "friction", levels: Sequence[float] = (0.1, 0.3
         acc = simulate_local_nonlinear(lin, drive, gather, [law], substeps=substeps)
         rng = np.random.default_rng(10_000 + seed + i)
         acc = acc + noise_m_s2 * rng.standard_normal(acc.shape)
-        chans = [Channel(name, "acceleration", "m/s^2", "Z", _POSITIONS_M[name], sample_rate_hz, row)
-                 for name, row in zip(SENSORS, acc, strict=True)]
+        chans = [
+            Channel(name, "acceleration", "m/s^2", "Z", _POSITIONS_M[name], sample_rate_hz, row)
+            for name, row in zip(SENSORS, acc, strict=True)
+        ]
         chans.append(Channel("drive", "displacement", "m", "Z", None, sample_rate_hz, u, role="drive"))
-        out.append(Recording(tuple(chans), {"source": "exudyn_study.diagnose.testbench", "joint": joint,
-                                            "level_m_s2": level, "seed": seed + i}))
+        out.append(
+            Recording(
+                tuple(chans),
+                {
+                    "source": "exudyn_study.diagnose.testbench",
+                    "joint": joint,
+                    "level_m_s2": level,
+                    "seed": seed + i,
+                },
+            )
+        )
     return out
