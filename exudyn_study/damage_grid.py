@@ -46,6 +46,7 @@ and every cell is a few seconds.
 
 from __future__ import annotations
 
+import contextlib
 import csv
 import json
 import logging
@@ -79,6 +80,7 @@ __all__ = [
     "resolve_damping",
     "measured_recordings",
     "run_grid",
+    "single_threaded_blas",
 ]
 
 log = logging.getLogger(__name__)
@@ -97,6 +99,20 @@ DAMPING_NAMES = ("adams-default", "step", "constant-1", "constant-2", "table6", 
 _CALIBRATION_FORMAT = "exudyn_study.calibration"
 _CAL_FREQ_RTOL = 0.01  # a calibration belongs to the same mesh: mode frequencies agree to 1 %
 _SUGGESTED_CUTOFF_HZ = 500.0  # calibrate_cli's default: Table 1 reachable on Models 1/2
+
+
+def single_threaded_blas():
+    """Limit BLAS/LAPACK to one thread (``threadpoolctl``; a no-op without it).
+
+    The grid's dense algebra is small (state matrices of 100-200): on the loaded 2-core
+    machine one 124 x 124 ``eig`` took 1.5-2.4 s with OpenBLAS's 2 threads and 0.02-0.04 s
+    with one (measured; :mod:`exudyn_study.calibrate` found the same).
+    """
+    try:
+        from threadpoolctl import threadpool_limits
+    except ImportError:  # optional
+        return contextlib.nullcontext()
+    return threadpool_limits(limits=1, user_api="blas")
 
 
 # ---------------------------------------------------------------------------------------
@@ -128,6 +144,7 @@ class ModelPlant:
     lin: object = None
     label: str = ""
     _gather: np.ndarray | None = field(default=None, repr=False)
+    _last: dict = field(default_factory=dict, repr=False)  # last drive and all its responses
 
     def __post_init__(self) -> None:
         from .modal import linearize
@@ -175,16 +192,22 @@ class ModelPlant:
         """
         from .simulate import OUTPUT_RATE_HZ, prepare_drive, simulate_linear
 
-        x = prepare_drive(drive, sample_rate_hz=OUTPUT_RATE_HZ)
-        self.model.drive.set_signal(x, OUTPUT_RATE_HZ)
-        elements = list(getattr(self.model, "local_nonlinearities", []))
-        if elements:
-            from .physics.nonlinear import simulate_local_nonlinear
-
-            laws = [el.law for el in elements]
-            acc = simulate_local_nonlinear(self.lin, self.model.drive, self._gather, laws)
+        drive = np.asarray(drive, dtype=float)
+        last = self._last.get("drive")
+        if last is not None and last.shape == drive.shape and np.array_equal(last, drive):
+            acc = self._last["acc"]  # the iteration's best drive, simulated again for the recording
         else:
-            acc = simulate_linear(self.lin, self.model.drive)
+            x = prepare_drive(drive, sample_rate_hz=OUTPUT_RATE_HZ)
+            self.model.drive.set_signal(x, OUTPUT_RATE_HZ)
+            elements = list(getattr(self.model, "local_nonlinearities", []))
+            if elements:
+                from .physics.nonlinear import simulate_local_nonlinear
+
+                laws = [el.law for el in elements]
+                acc = simulate_local_nonlinear(self.lin, self.model.drive, self._gather, laws)
+            else:
+                acc = simulate_linear(self.lin, self.model.drive)
+            self._last.update(drive=drive.copy(), acc=acc)
         idx = list(range(len(self.sensor_names))) if names is None else self.indices(names, "sensor")
         out = np.array(acc[idx], dtype=float)
         gains = getattr(self.model, "output_gains", {})
@@ -442,8 +465,8 @@ def resolve_damping(variant: int, name: str, calibration=None, probe: Callable |
     calibration : path or mapping, optional
         A calibration for ``'suggested'`` (see :func:`damping_from_calibration`).
     probe : callable, optional
-        ``probe() -> Model`` (built with any damping); Models 1/2 ``'suggested'`` without a
-        calibration are calibrated on it against thesis Table 1.
+        ``probe() -> Model`` (built with any damping, with the whole Exudyn mesh); Models 1/2
+        ``'suggested'`` without a calibration are calibrated on it against thesis Table 1.
 
     Returns
     -------
@@ -689,7 +712,8 @@ def measured_recordings(directory: str | os.PathLike,
         m = _SIGNAL_FILE.match(p.name)
         if m and p.is_file():
             found.setdefault(m["signal"], []).append(p)
-    wanted = list(signals) if signals is not None else list(found)
+    wanted = list(signals) if signals is not None else sorted(
+        found, key=lambda s: GRID_SIGNALS.index(s))  # the thesis's order
     if not wanted:
         raise InputError(f"measured directory {str(d)!r} has no '<name>_<signal>.h5' recordings "
                          f"(signals {list(GRID_SIGNALS)})")
@@ -790,6 +814,15 @@ def run_grid(
         channel, ``beta <= 0``, a missing output directory. Later: a compared channel
         missing from a measured recording, a calibration for another mesh.
     """
+    with single_threaded_blas():
+        return _run_grid(measured, models, dampings, signals, iterate, out_dir, control=control,
+                         channels=channels, beta=beta, rate_hz=rate_hz, max_iter=max_iter, tol=tol, reg=reg,
+                         calibrations=calibrations, builder=builder, mesh_size=mesh_size, cache_dir=cache_dir,
+                         plots=plots, progress=progress)
+
+
+def _run_grid(measured, models, dampings, signals, iterate, out_dir, *, control, channels, beta, rate_hz,
+              max_iter, tol, reg, calibrations, builder, mesh_size, cache_dir, plots, progress) -> GridResult:
     from .model import VARIANTS
 
     t_start = time.perf_counter()
@@ -839,12 +872,16 @@ def run_grid(
                 raise InputError(f"{where}: {exc} (needed with iterate=False)") from None
         recs[s] = rec
 
+    probe_builder = builder
     if builder is None:
         from .model import build_model
 
         def builder(variant, damping):
             return build_model(variant, damping=damping, mesh_size=mesh_size, cache_dir=cache_dir,
                                exudyn_mesh="used")
+
+        def probe_builder(variant, damping):  # the calibration reads sensors at every mesh node
+            return build_model(variant, damping=damping, mesh_size=mesh_size, cache_dir=cache_dir)
 
     plants: dict[tuple[int, str], ModelPlant] = {}
 
@@ -853,7 +890,7 @@ def run_grid(
         if key not in plants:
             t0 = time.perf_counter()
             spec = resolve_damping(variant, name, calibrations.get(variant),
-                                   probe=lambda: builder(variant, "adams-default"))
+                                   probe=lambda: probe_builder(variant, "adams-default"))
             plants[key] = ModelPlant(builder(variant, spec), label=name)
             say(f"model {variant}, damping {name}: built and linearised in {time.perf_counter() - t0:.1f} s")
         return plants[key]

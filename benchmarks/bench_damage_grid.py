@@ -1,0 +1,154 @@
+"""Benchmark of issue 6: drive iteration with a rig resonance the model lacks, and the full study grid.
+
+Part 1 (acceptance: error at the control sensors below 5 % rms within 10 iterations). The
+'truth' is a real model (default Model 1, STEP damping) with the ``drive_linkage_compliance``
+physics entry tuned to a linkage resonance at 28 Hz (thesis Section 7.1, Fig. 20); its 80 s
+white-noise response passes the acquisition chain (noise, anti-alias filter, ADC) and is the
+'measured' recording. Three iterations are reported, error per run:
+
+(a) the thesis's setting: the drive of the *nominal* model (no linkage compliance) is iterated
+    until its control responses match the measured ones (H: the nominal model's FRF);
+(b) time waveform replication on the truth itself with the nominal model's H, the FRF
+    updated from the runs (what a rig controller does when its model lacks a resonance);
+(c) as (b) with H kept fixed (the plain scheme of Fig. 21): diverges above the resonance.
+
+Part 2: the full grid, Models 1-3 x {adams-default, step, suggested} x {white-noise, test,
+test-50}, against the measured recordings in ``--measured-dir`` (``<name>_<signal>.h5``);
+without it, they are made first by the virtual test rig's ``thesis`` scenario (timed apart).
+Prints the wall time and the summary table; CSV and plots go to ``--out``.
+
+    python benchmarks/bench_damage_grid.py [--measured-dir DIR] [--out DIR] [--skip-grid]
+"""
+
+from __future__ import annotations
+
+import argparse
+import math
+import tempfile
+import time
+from pathlib import Path
+
+import numpy as np
+
+LINKAGE_HZ = 28.0
+LINKAGE_MASS_KG = 20.0
+LINKAGE_DAMPING_N_S_PER_M = 2e3
+ACCEPT = 0.05
+
+
+def _errors_table(label: str, res) -> None:
+    print(f"  {label}")
+    for k, row in enumerate(res.errors):
+        print(f"    run {k:2d}: " + "  ".join(f"{n} {100 * e:8.2f} %" for n, e in zip(res.control_names, row,
+                                                                                      strict=True)))
+    print(f"    -> {'converged' if res.converged else 'NOT converged'}, best {100 * res.best_error:.2f} % "
+          f"after {res.n_iterations} update(s)")
+
+
+def linkage_acceptance(variant: int, damping: str, duration_s: float, cache_dir=None) -> bool:
+    from exudyn_study.damage_grid import ModelPlant, iterate_model_drive
+    from exudyn_study.measurement import measure
+    from exudyn_study.model import build_model
+    from exudyn_study.physics import entry
+    from exudyn_study.signals import drive_signal
+    from exudyn_study.simulate import frf_linear
+
+    print(f"== drive iteration, Model {variant} ({damping}) with a {LINKAGE_HZ:g} Hz drive-linkage resonance "
+          f"in the truth, {duration_s:g} s white noise")
+    t0 = time.perf_counter()
+
+    def build():
+        return build_model(variant, damping=damping, cache_dir=cache_dir, exudyn_mesh="used")
+
+    nominal = ModelPlant(build())
+    lin = nominal.lin
+    m_eff = float(lin.drive_shape @ lin.full_mass @ lin.drive_shape) + LINKAGE_MASS_KG
+    k = (2 * math.pi * LINKAGE_HZ) ** 2 * m_eff  # first guess: the drive's mass on the spring
+    f = np.arange(3.0, 60.0, 0.05)
+    i = list(lin.sensor_names).index("ARFVZ")
+    h0 = np.abs(frf_linear(lin, f)[i, 0])
+    for _ in range(3):  # the linkage mode couples with the frame: retune k on the FRF ratio's peak
+        truth_model = build()
+        entry("drive_linkage_compliance").apply(truth_model, None, stiffness_n_per_m=k,
+                                                mass_kg=LINKAGE_MASS_KG,
+                                                damping_n_s_per_m=LINKAGE_DAMPING_N_S_PER_M)
+        truth = ModelPlant(truth_model, label=f"{damping} + linkage")
+        ratio = np.abs(frf_linear(truth.lin, f)[i, 0]) / h0
+        f_peak = f[np.argmax(ratio)]
+        if abs(f_peak - LINKAGE_HZ) < 0.5:
+            break
+        k *= (LINKAGE_HZ / f_peak) ** 2
+    print(f"  truth: k = {k:.3g} N/m; |H_truth / H_nominal| at ARFVZ peaks {ratio.max():.1f}x at "
+          f"{f_peak:.2f} Hz; models built in {time.perf_counter() - t0:.1f} s")
+    drive = drive_signal("white-noise", duration_s, 1000.0, 0.25e-3, 21)
+    measured = measure(truth.recording(drive, {"source": "benchmark truth (simulated)"}))
+    t1 = time.perf_counter()
+    a = iterate_model_drive(nominal, measured, max_iter=10, tol=ACCEPT)
+    t2 = time.perf_counter()
+    _errors_table(f"(a) nominal model iterated (thesis setting), {t2 - t1:.1f} s", a)
+    b = iterate_model_drive(truth, measured, frf_plant=nominal, max_iter=10, tol=ACCEPT)
+    t3 = time.perf_counter()
+    _errors_table(f"(b) TWR on the truth, H of the nominal model, updated from the runs, {t3 - t2:.1f} s", b)
+    c = iterate_model_drive(truth, measured, frf_plant=nominal, max_iter=3, tol=ACCEPT, update_frf=False)
+    _errors_table("(c) as (b) with H fixed (plain Fig. 21 scheme)", c)
+    ok = a.converged and b.converged and b.n_iterations <= 10
+    print(f"  [{'PASS' if ok else 'FAIL'}: (a) and (b) below {100 * ACCEPT:g} % rms within 10 iterations]")
+    return ok
+
+
+def full_grid(measured_dir: str | None, out: Path, cache_dir=None, iterations: int = 5) -> None:
+    from exudyn_study.damage_grid import measured_recordings, run_grid
+
+    if measured_dir is None:
+        from exudyn_study.virtual_rig import run_virtual_test
+
+        measured_dir = str(out / "measured")
+        Path(measured_dir).mkdir(parents=True, exist_ok=True)
+        t0 = time.perf_counter()
+        run_virtual_test("thesis", ("white-noise", "test", "test-50"), measured_dir, cache_dir=cache_dir)
+        print(f"\n== measured recordings: virtual rig 'thesis' scenario, {time.perf_counter() - t0:.1f} s "
+              f"-> {measured_dir}")
+    measured = measured_recordings(measured_dir)
+    print(f"\n== full grid: Models 1-3 x adams-default/step/suggested x {'/'.join(measured)}")
+    t0 = time.perf_counter()
+    res = run_grid(measured, out_dir=out, cache_dir=cache_dir, max_iter=iterations,
+                   progress=lambda s: print(f"  [{time.perf_counter() - t0:6.1f} s] {s}", flush=True))
+    print()
+    print(res.summary())
+    print(f"\n  grid wall time {res.wall_time_s:.1f} s for {len(res.cells)} cells; "
+          f"{len(res.files)} files in {out}")
+    # per model and damping: relative damage per z sensor for white noise (the thesis's Figs 22-24)
+    signal = "white-noise" if "white-noise" in measured else next(iter(measured))
+    names = res.cells[0].damage.names
+    print(f"\n  relative pseudo damage (%), {signal}:")
+    print("  " + f"{'sensor':<8}" + "".join(f"{f'M{c.model} {c.damping}':>22}" for c in res.cells
+                                            if c.signal == signal))
+    for n in names:
+        print("  " + f"{n:<8}" + "".join(f"{100 * c.damage[n].ratio:22.1f}" for c in res.cells
+                                         if c.signal == signal))
+
+
+def main() -> None:
+    p = argparse.ArgumentParser(description=__doc__.splitlines()[0])
+    p.add_argument("--measured-dir", default=None, help="measured recordings <name>_<signal>.h5")
+    p.add_argument("--out", default=None, help="output directory (default: a temporary one)")
+    p.add_argument("--model", type=int, default=1, help="model of the linkage acceptance (default 1)")
+    p.add_argument("--damping", default="step", help="its damping (default step)")
+    p.add_argument("--duration", type=float, default=80.0, help="its white-noise duration, s (default 80)")
+    p.add_argument("--iterations", type=int, default=5, help="grid: max drive updates per cell (default 5)")
+    p.add_argument("--skip-grid", action="store_true")
+    p.add_argument("--skip-linkage", action="store_true")
+    p.add_argument("--cache-dir", default=None)
+    args = p.parse_args()
+    out = Path(args.out) if args.out else Path(tempfile.mkdtemp(prefix="damage_grid_"))
+    out.mkdir(parents=True, exist_ok=True)
+    t0 = time.perf_counter()
+    if not args.skip_linkage:
+        linkage_acceptance(args.model, args.damping, args.duration, args.cache_dir)
+    if not args.skip_grid:
+        full_grid(args.measured_dir, out, args.cache_dir, args.iterations)
+    print(f"\ntotal {time.perf_counter() - t0:.1f} s")
+
+
+if __name__ == "__main__":
+    main()
