@@ -328,14 +328,14 @@ _TANKS = ("tank_left", "tank_right")
 
 
 def _tank_body(model, tank: str) -> tuple[str, np.ndarray]:
-    """(body carrying the tank, its mesh nodes): the Model-3 tank body or the tank's nodes in the chassis."""
-    if tank in model.bodies:
-        return tank, np.asarray(model.bodies[tank].body.component_nodes(tank)
-                                if tank in model.bodies[tank].body.region_components.values()
-                                else np.arange(model.bodies[tank].body.n_nodes), dtype=int)
+    """(body carrying the tank, the tank's mesh nodes): its shell region if it has one, else the component."""
     for name, handle in model.bodies.items():
-        if tank in set(handle.body.region_components.values()):
-            return name, np.asarray(handle.body.component_nodes(tank), dtype=int)
+        body = handle.body
+        if tank not in set(body.region_components.values()):
+            continue
+        shell = f"{tank}_shell"
+        nodes = body.region_nodes[shell] if shell in body.region_nodes else body.component_nodes(tank)
+        return name, np.asarray(nodes, dtype=int)
     raise InputError(f"sloshing: no body of this model carries {tank!r}; bodies {sorted(model.bodies)}")
 
 
@@ -406,16 +406,20 @@ the tank). In a partly filled tank the free surface sloshes. The equivalent mech
 of Housner (1963) and Abramson (1966) replaces the first sloshing mode by a mass
 ``slosh_mass_kg`` on horizontal springs (``x`` and ``y``, ``k = m (2 pi f_s)^2``) tuned to
 ``slosh_frequency_hz``, with viscous damping ``slosh_damping_ratio``; vertically and in
-rotation it follows the tank (a generic joint). It sits at the tank's centre: a rigid
-marker averaging the tank's mesh nodes nearest its bounding-box corners. The total mass is
+rotation it follows the tank (a generic joint). It sits at the tank's centre (Housner puts
+it at a height depending on the fill level; the centre is the simple choice): a rigid
+marker averaging the tank shell's mesh nodes nearest the shell's bounding-box corners. The total mass is
 unchanged: the same mass (and the slosh body's small rotary inertia) is taken off rigidly
 at that point by a negative-mass ``ObjectGenericODE2`` (Exudyn refuses negative masses on
 mass points and rigid bodies). The slosh mass must stay below the tank's own mass.
 
 Signature: two new, lightly damped horizontal modes at ``f_s`` (x and y; exactly ``f_s``
 for a rigid, fixed tank, slightly shifted by the tank's own compliance) seen by the tank's
-``X``/``Y`` sensors; the vertical (``Z``) response of the tank is unchanged; away from
-``f_s`` the horizontal response is unchanged (the compensation keeps the low-frequency mass).
+``X``/``Y`` sensors (the vertical drive hardly excites them: they show in the mode shapes
+and in horizontal excitation); the vertical (``Z``) response and the tank's vertical modes
+are unchanged; below ``f_s`` the horizontal response is unchanged (the compensation keeps the
+mass the drive moves exactly); above ``f_s`` the slosh mass no longer follows the tank, so
+the modes in which the tank moves horizontally rise (as if the tank lost ``slosh_mass_kg``).
 """,
     parameters=(
         Parameter("slosh_frequency_hz", "Hz", 0.2, 20.0, 1.5, "first sloshing frequency"),
@@ -458,6 +462,7 @@ def _add_modal_damping(model, location: str, params: dict) -> dict:
     mc = exu.MatrixContainer()
     mc.SetWithDenseMatrix(np.diag(diag), useDenseMatrix=False)
     model.mbs.SetObjectParameter(handle.object_number, "dampingMatrixReduced", mc)
+    handle.damping_ratios = zeta  # a second application scales these
     return {"body": int(handle.object_number)}
 
 
@@ -470,7 +475,8 @@ body's free-free mode frequency, thesis Section 3.3); the truth may dissipate mo
 less (joints, coatings, the water). The body's reduced damping matrix
 ``diag(2 zeta_i omega_i)`` is rebuilt with ``zeta_i`` times ``factor`` for the body modes
 with free-free frequency in ``[min_frequency_hz, max_frequency_hz]`` (the default band
-covers all). ``model.damping_ratios`` keeps the nominal choice.
+covers all). The body handle's ``damping_ratios`` take the new values (applications
+compose); ``model.damping_ratios`` keeps the nominal choice.
 
 Signature: the system modes' natural frequencies are unchanged (undamped: identical); the
 damping of system modes dominated by that body scales by ``factor`` (a mode whose energy
