@@ -1444,6 +1444,7 @@ def diagnose_generic(
         ],
         "relative_masses": {c: float(m) for c, m in zip(model.channels, model.masses, strict=True)},
         "masses_estimated": bool(model.masses_estimated),
+        "coherence": {sp.label: float(c) for sp, c in zip(specs, comp.coherence.mean(axis=1), strict=True)},
         "significance": {
             "alpha": settings.alpha,
             "min_effect": settings.min_effect,
@@ -1610,7 +1611,10 @@ def diagnose_generic(
         if c.rejected:
             continue
         c.holdout_after = float(np.mean([c.errors[i].mean() for i in ho_idx]))
-        if not c.holdout_after < before_ho:
+        blown = [specs[i].label for i in all_idx if not np.all(np.isfinite(c.errors[i]))]
+        if blown:
+            c.rejected = f"the fitted element makes the time simulation diverge on {', '.join(blown)}"
+        elif not c.holdout_after < before_ho:
             c.rejected = f"held-out error not reduced ({before_ho:.3g} -> {c.holdout_after:.3g})"
         else:
             ok.append(c)

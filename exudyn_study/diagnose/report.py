@@ -99,9 +99,12 @@ def _frf_overlay(data: Mapping, path: Path) -> Path | None:
     measured = data.get("measured") or {}
     chans = list(data.get("channels", []))
     sensors = [s for s in data.get("located_sensors", []) if s in chans][:3]
+    lv = dict(zip(data.get("labels", []), np.asarray(data.get("levels", []), float), strict=False))
+    # held-out recordings first, then the training recordings from the highest level down
+    train = sorted(data.get("train", []), key=lambda lab: -lv.get(lab, 0.0))
     recs = [
         lab
-        for lab in list(data.get("holdout", [])) + list(data.get("train", []))
+        for lab in list(data.get("holdout", [])) + train
         if lab in measured and (lab in after or lab in nominal)
     ]
     recs = list(dict.fromkeys(recs))[:3]
