@@ -65,6 +65,7 @@ from __future__ import annotations
 import logging
 import math
 import time
+import warnings
 from collections.abc import Mapping, Sequence
 from dataclasses import dataclass, field
 
@@ -165,6 +166,11 @@ def _layout_of(rec: Recording, who: str) -> tuple:
         raise InputError(
             f"{who}: recording has {len(drives)} drive channels "
             f"({', '.join(d.name for d in drives)}); expected exactly one"
+        )
+    if drives[0].quantity != "displacement":
+        raise InputError(
+            f"{who}: drive channel {drives[0].name!r} is a {drives[0].quantity}; the generic diagnosis "
+            "supports a displacement drive (table or base excitation) only; record the table displacement"
         )
     resp = rec.response_channels
     if not resp:
@@ -582,8 +588,6 @@ def identify_reduced_model(spec: _Spectra, channels, f0=None, z0=None) -> Reduce
             tuple(channels),
             ("drive_acc",),
         )
-        import warnings
-
         with warnings.catch_warnings():
             warnings.simplefilter("ignore")  # resolution advice is for EMA users, not here
             res = identify_frf(
@@ -1422,6 +1426,13 @@ def diagnose_generic(
         _spectra(r, layout, lab, settings, band) for r, lab in zip(train, tr_labels, strict=True)
     ]
     specs += [_spectra(r, layout, lab, settings, band) for r, lab in zip(holdout, ho_labels, strict=True)]
+    lowest = min(specs, key=lambda sp: sp.level)
+    if lowest.level < 0.8 * ref.level:
+        warnings.warn(
+            f"recording {lowest.label!r} has a lower drive level ({lowest.level:.3g} m/s^2) than the model "
+            f"reference {ref_label!r} ({ref.level:.3g} m/s^2); identify the model from the lowest level",
+            stacklevel=2,
+        )
     n_tr = len(train)
     tr_idx = list(range(1, 1 + n_tr))
     ho_idx = list(range(1 + n_tr, len(specs)))

@@ -207,6 +207,18 @@ def test_model_whose_sensors_do_not_match_the_recordings(linear):
         diagnose_generic(_renamed(linear[0], "B3", "C3"), [linear[1]], [linear[2]], settings=SETTINGS)
 
 
+def test_force_drive_is_refused(linear):
+    rec = linear[1]
+    chans = [
+        Channel(c.name, "force", "N", c.direction, c.position_m, c.sample_rate_hz, c.data, c.role)
+        if c.role == "drive"
+        else c
+        for c in rec.channels
+    ]
+    with pytest.raises(InputError, match="supports a displacement drive"):
+        diagnose_generic(linear[0], [Recording(tuple(chans))], [linear[2]], settings=SETTINGS)
+
+
 def test_interface_naming_an_unknown_sensor(linear):
     with pytest.raises(InputError, match="sensor 'X9' is not in the recordings"):
         diagnose_generic(linear[0], [linear[1]], [linear[2]], interfaces=[("A2", "X9")], settings=SETTINGS)
