@@ -49,6 +49,13 @@ identified shapes (lumped at the sensors), and the element's parameters are repo
 relative to the identified linear stiffness of the interface (shares, ratios) and in
 metres (slip displacement, gap), which are scale-free.
 
+Limitations: the drive must be a displacement (table or base excitation; a force drive is
+refused with a message); one local element at one interface is fitted per diagnosis; the
+equivalent-linear (Gaussian statistical linearisation, Rayleigh-averaged describing function for
+the Jenkins element) fit only starts the time-simulation refinement; parameter standard
+deviations are statistical (from the time-simulation Jacobian) and do not include the bias of
+the identified linear link stiffness (a few per cent on the test structure).
+
 References
 ----------
 Bendat, J. S., Piersol, A. G. (2010). Random Data, 4th ed., Wiley (FRF random error).
