@@ -1,0 +1,642 @@
+"""Diagnosis on the rig: a model variant against recordings (the chassis path of ``exudyn-study diagnose``).
+
+:func:`diagnose_rig` runs the five steps of the diagnosis:
+
+1. **Compare**: the nominal model (variant + damping) is driven by each recording's drive
+   channel; residual per channel (:mod:`~exudyn_study.diagnose.rig_compare`).
+2. **Locate**: channel x band cells whose residual is significantly coherent with the
+   drive and not negligible (family-wise p < 1e-3, effect >= 0.5 %). None: "no missing
+   physics found". Level dependence: the same comparison between the recordings' FRFs.
+3. **Name**: every candidate (catalogue entry at a location:
+   :mod:`~exudyn_study.diagnose.rig_hypotheses`) is scored by how much of the training
+   residual its first-order change explains (one derivative each);
+4. **Model and fit**: the best candidates are fitted (bounded least squares on the
+   training residual, log parameters), rejected if not identifiable (relative std > 30 %
+   or at a bound) or if they explain too little, and chosen by the Akaike information
+   criterion; the fitted model is checked again for remaining significant mismatch
+   ("unexplained").
+5. **Prove**: held-out error before and after per channel and relative pseudo damage
+   at the z sensors before and after; a plain-language explanation.
+"""
+
+from __future__ import annotations
+
+import logging
+import math
+import time
+from collections.abc import Callable, Sequence
+
+import numpy as np
+
+from ..errors import InputError
+from .rig_compare import (BANDS_HZ, METRIC, band_filter, prepare, relative_errors, significance_map,
+                          summary_error)
+from .rig_hypotheses import (AddedMassHypothesis, AffineHypothesis, Hypothesis, ModalDampingHypothesis,
+                             SensorGainHypothesis, log_bounds, to_params, to_x)
+from .schema import Diagnosis, Finding
+
+__all__ = ["diagnose_rig", "RigDiagnosisSettings"]
+
+log = logging.getLogger(__name__)
+
+
+class RigDiagnosisSettings:
+    """Knobs of :func:`diagnose_rig` (defaults are what the benchmark uses)."""
+
+    train_duration_s: float = 40.0  # training seconds used for fitting (per recording)
+    screen_duration_s: float = 12.0  # seconds of the first training recording used for screening
+    n_fit: int = 4  # candidates fitted in full after screening
+    min_improvement: float = 0.3  # a finding must cut the training error by this share
+    max_relative_std: float = 0.3
+    min_effect: float = 0.005
+    p_value: float = 1e-3
+
+
+def _load(recs, what):
+    from ..recording import Recording, read_recording
+
+    out = []
+    for r in recs or []:
+        if isinstance(r, Recording):
+            out.append((str(r.metadata.get("name", f"{what}{len(out)}")), r))
+        else:
+            out.append((str(r), read_recording(r)))
+    return out
+
+
+def _check_layouts(named):
+    ref_name, ref = named[0]
+    ref_set = sorted(ch.name for ch in ref if ch.role == "response")
+    for name, rec in named[1:]:
+        names = sorted(ch.name for ch in rec if ch.role == "response")
+        if names != ref_set:
+            diff = sorted(set(names) ^ set(ref_set))
+            raise InputError(f"recordings {ref_name!r} and {name!r} have different sensor layouts (differ in "
+                             f"{diff[:6]}); diagnose recordings of one test set-up")
+
+
+class _Evaluator:
+    """Simulate a system against prepared recordings; residual vector and errors.
+
+    ``exact=True``: :func:`~exudyn_study.simulate.simulate_linear` (fits, errors, significance).
+    Otherwise (screening) the response from rest is the linear convolution of the drive with the model's impulse
+    response, computed as ``irfft(H(f) U(f))`` with the drive zero-padded by
+    ``pad_s`` (longer than the slowest mode's decay) after a 1 s fade from its last value
+    to zero (by causality the extension does not change the response within the record;
+    it only keeps the padded drive band-limited). The recorded drive is band-limited to 102.4 Hz (204.8 Hz channel), so
+    ``H`` is evaluated only up to :data:`F_MAX_HZ`: about 10x cheaper than the exact
+    discretisation (:func:`~exudyn_study.simulate.simulate_linear`), which it matches to
+    the drive's band limit, except where slow or undamped rig modes (< 3 Hz) wrap around:
+    good enough to rank candidates, not to fit them.
+    """
+
+    F_MAX_HZ = 110.0
+
+    def __init__(self, recordings, sensor_names, pad_s: float = 30.0, exact: bool = False):
+        from .rig_compare import RATE_HZ
+
+        self.exact = exact
+        self.recs = recordings
+        self.sensor_names = tuple(sensor_names)
+        self.idx = [np.array([self.sensor_names.index(c) for c in r.channels]) for r in recordings]
+        self._cache = {}
+        self.spectra = []
+        for r in recordings:
+            n = r.drive.samples.size
+            m = int(1.0 * RATE_HZ)
+            fade = r.drive.samples[-1] * (0.5 + 0.5 * np.cos(np.pi * np.arange(1, m + 1) / m))
+            u = np.concatenate([r.drive.samples, fade])
+            n_fft = 1 << int(math.ceil(math.log2(n + pad_s * RATE_HZ)))
+            spec = np.fft.rfft(u, n_fft)
+            f = np.fft.rfftfreq(n_fft, 1.0 / RATE_HZ)
+            keep = f <= self.F_MAX_HZ
+            self.spectra.append((n, n_fft, f[keep], spec[keep]))
+
+    def simulate(self, lin, gains=None):
+        from ..simulate import frf_linear
+
+        if self.exact:
+            return self.simulate_exact(lin, gains)
+        key = id(lin)
+        if key in self._cache and self._cache[key][0] is lin:
+            base = self._cache[key][1]
+        else:
+            base = []
+            for (n, n_fft, f, spec), idx in zip(self.spectra, self.idx, strict=True):
+                h = frf_linear(lin, f)[idx, 0, :]
+                full = np.zeros((idx.size, n_fft // 2 + 1), dtype=complex)
+                full[:, : f.size] = h * spec[None, :]
+                base.append(np.fft.irfft(full, n_fft, axis=1)[:, :n])
+            self._cache = {key: (lin, base)}
+        if gains is None:
+            return base
+        return [b * gains[:, None] for b in base]
+
+    def simulate_exact(self, lin, gains=None):
+        """The exact discretisation (:func:`~exudyn_study.simulate.simulate_linear`): fits and significance."""
+        from ..simulate import simulate_linear
+
+        key = ("exact", id(lin))
+        if key in self._cache and self._cache[key][0] is lin:
+            base = self._cache[key][1]
+        else:
+            base = [simulate_linear(lin, r.drive)[idx] for r, idx in zip(self.recs, self.idx, strict=True)]
+            self._cache = {key: (lin, base)}
+        return base if gains is None else [b * gains[:, None] for b in base]
+
+    def residual_vector(self, lin, gains=None):
+        parts = []
+        for r, sim in zip(self.recs, self.simulate(lin, gains), strict=True):
+            e = band_filter(r.measured - sim) * r.scale[:, None]
+            parts.append(e.ravel() / math.sqrt(e.size))
+        return np.concatenate(parts)
+
+    def errors(self, sims):
+        return [relative_errors(r, s) for r, s in zip(self.recs, sims, strict=True)]
+
+
+def _fit(h: Hypothesis, ev: _Evaluator, channels, max_nfev=40):
+    from scipy.optimize import least_squares
+
+    pos, lo, hi = log_bounds(h)
+
+    def fun(x):
+        p = to_params(h, x)
+        return ev.residual_vector(h.system(p), h.gains(p, channels))
+
+    x0 = np.clip(to_x(h, h.start), lo + 1e-9, hi - 1e-9)
+    res = least_squares(fun, x0, bounds=(lo, hi), diff_step=1e-3, max_nfev=max_nfev, x_scale=1.0)
+    p = to_params(h, res.x)
+    n_eff = _effective_samples(ev)
+    rss = float(2 * res.cost)
+    dof = max(1, n_eff - p.size)
+    try:
+        cov_x = np.linalg.inv(res.jac.T @ res.jac) * rss / dof
+        std_x = np.sqrt(np.maximum(np.diag(cov_x), 0.0))
+    except np.linalg.LinAlgError:
+        std_x = np.full(p.size, np.inf)
+    std_p = np.where(pos, p * std_x, std_x)
+    at_bound = np.any((res.x <= lo + 1e-3) | (res.x >= hi - 1e-3))
+    return p, std_p, rss, at_bound, res.nfev
+
+
+def _decay_time(lin, factor: float = 5.0, floor_s: float = 4.0) -> float:
+    """Zero padding for the convolution: ``factor`` times the slowest decay time of the modes below 200 Hz."""
+    from ..simulate import _state_space
+
+    a = _state_space(lin)[0]
+    lam = np.linalg.eigvals(a)
+    lam = lam[(np.abs(lam) > 2 * math.pi * 0.5) & (np.abs(lam) < 2 * math.pi * 200)]
+    if lam.size == 0:
+        return floor_s
+    slowest = float(np.max(-1.0 / np.minimum(lam.real, -1e-9)))
+    return float(min(60.0, max(floor_s, factor * slowest)))
+
+
+def _effective_samples(ev: _Evaluator) -> int:
+    """Independent residual samples: 2 x bandwidth x duration per channel."""
+    from .rig_compare import BAND_HZ, RATE_HZ
+
+    n = 0
+    for r in ev.recs:
+        dur = r.filtered.shape[1] * 4 / RATE_HZ
+        n += int(2 * (BAND_HZ[1] - BAND_HZ[0]) * dur) * len(r.channels)
+    return n
+
+
+def _aic(rss: float, k: int, n_eff: int) -> float:
+    return n_eff * math.log(max(rss, 1e-300) / n_eff) + 2 * k
+
+
+def _sensor_component(name: str) -> str | None:
+    from ..sensors import SENSORS
+
+    for s in SENSORS:
+        if s.name == name:
+            return s.component
+    return None
+
+
+def _modes(lin):
+    import scipy.linalg as sla
+
+    w2 = sla.eigh(lin.stiffness, lin.mass, eigvals_only=True)
+    return np.sqrt(np.maximum(w2, 0.0)) / (2 * math.pi)
+
+
+def diagnose_rig(variant: int, train: Sequence, holdout: Sequence, damping="adams-default",
+                 progress: Callable | None = None, bodies=None, sensors=None, candidates: Sequence[str] | None = None,
+                 settings: RigDiagnosisSettings | None = None, cache_dir=None, figures: dict | None = None) -> Diagnosis:
+    """Diagnose the mismatch between model ``variant`` and the recordings (see :func:`_diagnose_rig`).
+
+    ``figures``: a dict filled with the arrays of the report's figures
+    (:func:`exudyn_study.diagnose.report.write_report`).
+
+    Runs with one BLAS thread: the work is thousands of small (~100x100) eigen/solve
+    problems, which multi-threaded BLAS makes several times slower on a shared machine.
+    """
+    from threadpoolctl import threadpool_limits
+
+    with threadpool_limits(1):
+        return _diagnose_rig(variant, train, holdout, damping, progress, bodies, sensors, candidates, settings,
+                             cache_dir, figures)
+
+
+def _diagnose_rig(variant: int, train: Sequence, holdout: Sequence, damping="adams-default",
+                  progress: Callable | None = None, bodies=None, sensors=None, candidates: Sequence[str] | None = None,
+                  settings: RigDiagnosisSettings | None = None, cache_dir=None, figures=None) -> Diagnosis:
+    """Diagnose the mismatch between model ``variant`` and the recordings.
+
+    Parameters
+    ----------
+    variant : {1, 2, 3}
+    train, holdout : sequence of Recording or paths
+        Training recordings (fitted) and held-out recordings (only evaluated).
+    damping : str
+        The nominal model's damping function.
+    progress : callable, optional
+        Called with short status texts.
+    bodies, sensors
+        Reduced bodies and sensor names for :func:`~exudyn_study.model.build_model_from_bodies`
+        (tests); default the variant's chassis bodies and all sensors.
+    candidates : sequence of str, optional
+        Catalogue entries to consider (default all the rig path can fit).
+    settings : RigDiagnosisSettings, optional
+
+    Returns
+    -------
+    Diagnosis
+
+    Raises
+    ------
+    InputError
+        No training or held-out recording, different sensor layouts, no drive channel,
+        channels the model lacks.
+    """
+    from ..model import build_model, build_model_from_bodies
+    from ..modal import linearize
+    from ..physics import CATALOGUE
+    from ..physics.entries import location_point
+    from ..physics.nonlinear import marker_displacement_map
+    from ..rig_cli import parse_damping
+
+    st = settings or RigDiagnosisSettings()
+    say = progress or (lambda text: log.info(text))
+    t_start = time.perf_counter()
+    tr, ho = _load(train, "train"), _load(holdout, "holdout")
+    if not tr:
+        raise InputError("no training recording given (--train): the diagnosis fits on it")
+    if not ho:
+        raise InputError("no held-out recording given (--holdout): the diagnosis proves a fit on recordings it "
+                         "was not fitted to; give another signal or excitation level")
+    _check_layouts(tr + ho)
+    damping_fn = parse_damping(damping) if isinstance(damping, str) else damping
+
+    def build():
+        if bodies is None:
+            return build_model(variant, damping=damping_fn, sensors=sensors, cache_dir=cache_dir, exudyn_mesh="used")
+        return build_model_from_bodies(bodies, variant, damping=damping_fn, sensors=sensors, exudyn_mesh="used")
+
+    say("building the nominal model")
+    model = build()
+    sensor_names = tuple(model.sensors)
+    locations = list(sensor_names) + sorted(k for k in model.interfaces if not k.startswith("rear_foundation"))
+    markers = {}
+    for loc in locations:
+        markers[loc] = location_point(model, loc)
+    model.assemble()
+    lin0 = linearize(model)
+    train_recs = [prepare(r, sensor_names, n, st.train_duration_s) for n, r in tr]
+    screen_recs = [prepare(r, sensor_names, n, st.screen_duration_s) for n, r in tr[:1]]
+    hold_recs = [prepare(r, sensor_names, n) for n, r in ho]
+    channels = train_recs[0].channels
+    pad = _decay_time(lin0)
+    ev_train = _Evaluator(train_recs, sensor_names, pad, exact=True)
+    ev_hold = _Evaluator(hold_recs, sensor_names, pad, exact=True)
+    ev_screen = _Evaluator(screen_recs, sensor_names, pad)
+
+    # 1-2 compare and locate ----------------------------------------------------------------
+    say("comparing the nominal model with the recordings")
+    sims_tr, sims_ho = ev_train.simulate_exact(lin0), ev_hold.simulate_exact(lin0)
+    maps = [significance_map(r, s, min_effect=st.min_effect, p_value=st.p_value / (len(tr) + len(ho)))
+            for r, s in zip(train_recs + hold_recs, sims_tr + sims_ho, strict=True)]
+    significant = np.zeros((len(channels), len(BANDS_HZ)), dtype=bool)
+    for m in maps:
+        significant |= m.significant
+    err_tr0 = [summary_error(e) for e in ev_train.errors(sims_tr)]
+    err_ho0 = [summary_error(e) for e in ev_hold.errors(sims_ho)]
+    meta = {"model": int(variant), "damping": str(damping), "train": [n for n, _ in tr],
+            "holdout": [n for n, _ in ho], "metric": METRIC, "nominal_train_error": err_tr0,
+            "nominal_holdout_error": err_ho0, "significant_cells": int(significant.sum()),
+            "bands_hz": [list(b) for b in BANDS_HZ],
+            "residual_z": [m.z.round(2).tolist() for m in maps],
+            "residual_effect": [m.effect.round(4).tolist() for m in maps], "channels": list(channels)}
+    if figures is not None:
+        _figures_before(figures, tr + ho, train_recs + hold_recs, sims_tr + sims_ho, lin0, sensor_names, maps)
+        figures["train"], figures["holdout"] = [n for n, _ in tr], [n for n, _ in ho]
+    if not significant.any():
+        meta["wall_s"] = time.perf_counter() - t_start
+        say("no significant mismatch: no missing physics found")
+        return Diagnosis(False, [], [], meta)
+    located = [channels[i] for i in np.flatnonzero(significant.any(axis=1))]
+    bands = [BANDS_HZ[j] for j in np.flatnonzero(significant.any(axis=0))]
+    band_hz = (min(b[0] for b in bands), max(b[1] for b in bands))
+    level_dependent = _level_dependent(train_recs + hold_recs, lin0, sensor_names)
+
+    # 3 name: candidates and first-order screening --------------------------------------------
+    wanted = set(candidates) if candidates is not None else None
+
+    def want(name):
+        return (wanted is None or name in wanted) and name in CATALOGUE
+
+    hyps: list[Hypothesis] = []
+    if want("added_mass"):
+        seen = []
+        for loc in locations:
+            marker, pos = markers[loc]
+            if any(np.linalg.norm(pos - q) < 1e-6 for q in seen):
+                continue  # several sensors (X, Y, Z) at one point: one candidate
+            seen.append(pos)
+            comp = _sensor_component(loc) if loc in model.sensors else "frame"
+            near = [s for s in sensor_names if np.linalg.norm(model.sensors[s].sensor.position_m - pos) < 0.3]
+            here = [s for s in sensor_names if np.linalg.norm(markers[s][1] - pos) < 1e-6]
+            hyps.append(AddedMassHypothesis(loc, lin0, marker_displacement_map(model, marker), component=comp,
+                                            sensors=tuple(here if loc in model.sensors else near),
+                                            interface=None if loc in model.sensors else loc.split(".", 1)[1]))
+    if want("modal_damping"):
+        for body, handle in model.bodies.items():
+            if body == "rear_foundation":
+                continue
+            idx = np.asarray(model.mbs.systemData.GetNodeLTGODE2(handle.modal_node), dtype=int)
+            hyps.append(ModalDampingHypothesis(body, lin0, idx, component=body, sensors=tuple(located)))
+    if want("sensor_gain"):
+        for ch in located:
+            hyps.append(SensorGainHypothesis(ch, lin0, component=_sensor_component(ch), sensors=(ch,)))
+    if want("drive_linkage_compliance"):
+        from ..physics import entry
+
+        say("linearising the drive-linkage hypothesis")
+        hyps.append(AffineHypothesis(
+            "drive_linkage_compliance", None, entry("drive_linkage_compliance"), build,
+            {"stiffness_n_per_m": 2e7, "damping_n_s_per_m": 2e3, "mass_kg": 20.0},
+            {"stiffness_n_per_m": 1e6, "damping_n_s_per_m": 100.0, "mass_kg": 1.0},
+            component="rig drive linkage", sensors=tuple(located), interface="piston_linkage"))
+    say(f"screening {len(hyps)} candidates")
+    r0 = ev_train.residual_vector(lin0)
+    r0_screen = ev_screen.residual_vector(lin0)
+    scores = []
+    for h in hyps:
+        scores.append(_screen(h, ev_screen, channels, r0_screen))
+    order = np.argsort(scores)[::-1]
+    # 4 fit the best candidates --------------------------------------------------------------
+    n_eff = _effective_samples(ev_train)
+    rss0 = float(r0 @ r0)
+    aic0 = _aic(rss0, 0, n_eff)
+    fitted = []
+    for i in order[: st.n_fit]:
+        h = hyps[i]
+        say(f"fitting {h.label} (screening score {scores[i]:.3f})")
+        p, std, rss, at_bound, nfev = _fit(h, ev_train, channels)
+        rel_std = np.abs(std) / np.maximum(np.abs(p), 1e-300)
+        fitted.append({"h": h, "p": p, "std": std, "rss": rss, "aic": _aic(rss, p.size, n_eff),
+                       "identifiable": bool(np.all(rel_std < st.max_relative_std) and not at_bound),
+                       "improvement": 1.0 - math.sqrt(rss / rss0), "score": float(scores[i]), "nfev": nfev})
+    meta["candidates"] = [{"candidate": f["h"].label, "aic": round(f["aic"] - aic0, 1),
+                           "improvement": round(f["improvement"], 4), "identifiable": f["identifiable"],
+                           "parameters": dict(zip(f["h"].names, np.round(f["p"], 6).tolist(), strict=True))}
+                          for f in fitted]
+    ok = [f for f in fitted if f["identifiable"] and f["improvement"] >= st.min_improvement]
+    findings, unexplained = [], []
+    if ok:
+        best = min(ok, key=lambda f: f["aic"])
+        h, p = best["h"], best["p"]
+        lin1, gains1 = h.system(p), h.gains(p, channels)
+        sims_tr1, sims_ho1 = ev_train.simulate_exact(lin1, gains1), ev_hold.simulate_exact(lin1, gains1)
+        err_tr1 = [summary_error(e) for e in ev_train.errors(sims_tr1)]
+        per_ho0, per_ho1 = ev_hold.errors(sims_ho), ev_hold.errors(sims_ho1)
+        err_ho1 = [summary_error(e) for e in per_ho1]
+        damage = _damage(hold_recs, sims_ho, sims_ho1)
+        fit = {"train_before": float(np.mean(err_tr0)), "train_after": float(np.mean(err_tr1)),
+               "holdout_before": float(np.mean(err_ho0)), "holdout_after": float(np.mean(err_ho1)),
+               "metric": METRIC,
+               "per_channel": {c: {"holdout_before": float(np.mean([e[k] for e in per_ho0])),
+                                   "holdout_after": float(np.mean([e[k] for e in per_ho1]))}
+                               for k, c in enumerate(channels)},
+               "relative_pseudo_damage": damage}
+        params = {n: {"value": float(v), "unit": u, "std": float(s)}
+                  for n, v, u, s in zip(h.names, p, h.units, best["std"], strict=True)}
+        if figures is not None:
+            figures["after_T"] = {lab: _model_t(lin1, figures["freq_hz"], rec.channels, sensor_names, gains1)
+                                  for lab, rec in zip(figures["labels"], train_recs + hold_recs, strict=True)}
+            figures["located_sensors"] = list(located)
+            figures["physics"] = h.physics
+            figures["pseudo_damage"] = {c: {"measured": 1.0, **v} for c, v in damage.items()}
+        findings.append(Finding(
+            physics=h.physics, location={"sensors": list(h.sensors), "component": h.component,
+                                         "interface": h.interface},
+            band_hz=band_hz, level_dependent=level_dependent,
+            explanation=_explain(h, p, best["std"], lin0, lin1, located),
+            parameters=params, fit=fit))
+        # anything left?
+        rest = [significance_map(r, s, min_effect=st.min_effect, p_value=st.p_value / (len(tr) + len(ho)))
+                for r, s in zip(train_recs + hold_recs, sims_tr1 + sims_ho1, strict=True)]
+        left = np.zeros_like(significant)
+        for m in rest:
+            left |= m.significant
+        if left.any():
+            unexplained.append(_unexplained(left, channels, level_dependent,
+                                            "mismatch left after the finding above"))
+    else:
+        unexplained.append(_unexplained(significant, channels, level_dependent,
+                                        "no catalogue entry explains it: " + "; ".join(
+                                            f"{f['h'].label} improves {100 * f['improvement']:.0f} %"
+                                            f"{'' if f['identifiable'] else ' (not identifiable)'}"
+                                            for f in fitted)))
+    meta["wall_s"] = time.perf_counter() - t_start
+    return Diagnosis(True, findings, unexplained, meta)
+
+
+#: screening grids of one-parameter candidates (values tried; the best counts)
+SCREEN_GRID = {"added_mass": (2.0, 6.0, 15.0, 40.0, 100.0), "modal_damping": (0.3, 0.6, 1.6, 3.0),
+               "sensor_gain": (0.7, 0.85, 1.15, 1.4)}
+
+
+def _model_t(lin, freq, channels, sensor_names, gains=None):
+    """Model transmissibility (sensor acceleration / drive acceleration) at ``freq``, (n_channels, n_f)."""
+    from ..simulate import frf_linear
+
+    idx = [list(sensor_names).index(c) for c in channels]
+    w2 = (2 * np.pi * np.asarray(freq)) ** 2
+    h = frf_linear(lin, freq)[idx, 0, :] / (-w2[None, :])
+    return h if gains is None else h * gains[:, None]
+
+
+def _figures_before(figures, named, recs, sims, lin0, sensor_names, maps):
+    """Residual map (model error power / noise power per bin), measured and nominal transmissibilities."""
+    from scipy import signal as sps
+
+    k0 = 1000
+    labels = [str(n).rsplit("/", 1)[-1] for n, _ in named]
+    rmaps, measured, nominal, levels = [], {}, {}, []
+    freq = None
+    for lab, r, s in zip(labels, recs, sims, strict=True):
+        u = r.drive.samples[k0:]
+        e = (r.measured - s)[:, k0:]
+        f, suu = sps.welch(u, 1000.0, nperseg=4096)
+        _, sue = sps.csd(u[None, :], e, 1000.0, nperseg=4096)
+        _, see = sps.welch(e, 1000.0, nperseg=4096)
+        _, suy = sps.csd(u[None, :], r.measured[:, k0:], 1000.0, nperseg=4096)
+        band = (f >= 3.0) & (f <= 60.0)
+        g2 = np.clip(np.abs(sue) ** 2 / (suu[None, :] * see + 1e-300), 0.0, 1.0 - 1e-9)
+        rmaps.append((g2 / (1.0 - g2))[:, band])
+        w2 = (2 * np.pi * f[band]) ** 2
+        measured[lab] = (suy[:, band] / suu[None, band]) / (-w2[None, :])
+        freq = f[band]
+        levels.append(float(np.std(np.gradient(np.gradient(u, 1e-3), 1e-3))))
+    figures.update(channels=list(recs[0].channels), freq_hz=freq, labels=labels, levels=levels,
+                   residual_map=np.array(rmaps), bands_hz=[list(b) for b in BANDS_HZ], measured=measured)
+    figures["nominal_T"] = {lab: _model_t(lin0, freq, r.channels, sensor_names) for lab, r in zip(labels, recs,
+                                                                                                  strict=True)}
+
+
+def _screen(h: Hypothesis, ev: _Evaluator, channels, r0: np.ndarray) -> float:
+    """Share of the training residual the candidate explains at its best screening-grid value (0-1).
+
+    One-parameter candidates are evaluated on :data:`SCREEN_GRID` and refined by a
+    parabola in the (log) parameter through the best point and its neighbours; candidates
+    with several parameters get score 1 (always fitted).
+    """
+    grid = SCREEN_GRID.get(h.physics)
+    if grid is None or len(h.names) != 1:
+        return 1.0
+    rss0 = float(r0 @ r0)
+    xs = np.log(np.asarray(grid))
+    vals = []
+    for v in grid:
+        r = ev.residual_vector(h.system([v]), h.gains([v], channels))
+        vals.append(float(r @ r))
+    k = int(np.argmin(vals))
+    best = vals[k]
+    if 0 < k < len(grid) - 1:
+        a, b, c = vals[k - 1], vals[k], vals[k + 1]
+        x0, x1, x2 = xs[k - 1], xs[k], xs[k + 1]
+        denom = (x0 - x1) * (x0 - x2) * (x1 - x2)
+        if denom != 0:
+            A = (x2 * (b - a) + x1 * (a - c) + x0 * (c - b)) / denom
+            B = (x2**2 * (a - b) + x1**2 * (c - a) + x0**2 * (b - c)) / denom
+            if A > 0:
+                xv = -B / (2 * A)
+                if x0 < xv < x2:
+                    v = float(np.exp(xv))
+                    r = ev.residual_vector(h.system([v]), h.gains([v], channels))
+                    best = min(best, float(r @ r))
+                    h.start = np.array([v])
+                    return max(0.0, 1.0 - best / rss0)
+    h.start = np.array([grid[k]])
+    return max(0.0, 1.0 - best / rss0)
+
+
+def _level_dependent(recs, lin, sensor_names) -> bool:
+    """True if the measured drive->response FRFs differ between recordings of different level.
+
+    Recordings whose drive rms differs by more than 20 % are compared pairwise in the
+    common drive band (H1, 0.24 Hz); the difference counts if it exceeds 5 times its
+    coherence-based standard error in more than 5 % of the bins at the reference channels.
+    """
+    from scipy import signal as sps
+
+    by_level = sorted(recs, key=lambda r: r.drive_rms_m)
+    if len(by_level) < 2 or by_level[-1].drive_rms_m < 1.2 * by_level[0].drive_rms_m:
+        return False
+    lo, hi = by_level[0], by_level[-1]
+    k0 = 1000
+    out = []
+    for r in (lo, hi):
+        u = r.drive.samples[k0:]
+        f, suu = sps.welch(u, 1000.0, nperseg=4096)
+        _, suy = sps.csd(u[None, :], r.measured[:, k0:], 1000.0, nperseg=4096)
+        _, syy = sps.welch(r.measured[:, k0:], 1000.0, nperseg=4096)
+        n_d = max(2, 2 * u.size // 4096 - 1)
+        h = suy / suu[None, :]
+        coh = np.abs(suy) ** 2 / (suu[None, :] * syy + 1e-300)
+        var = np.abs(h) ** 2 * (1 - coh) / (2 * n_d * np.maximum(coh, 1e-6))
+        out.append((f, h, var))
+    (f, h0, v0), (_, h1, v1) = out
+    band = (f >= 5) & (f <= 55)
+    z = np.abs(h1 - h0)[:, band] / np.sqrt(v0[:, band] + v1[:, band] + 1e-300)
+    rel = np.abs(h1 - h0)[:, band] / np.maximum(np.abs(h0[:, band]), 1e-300)
+    return bool(np.mean((z > 5) & (rel > 0.05)) > 0.05)
+
+
+def _damage(recs, before, after):
+    """Relative pseudo damage (Basquin beta 5) at the z sensors, before and after, per held-out recording."""
+    from ..fatigue import pseudo_damage
+
+    out = {}
+    for r, b, a in zip(recs, before, after, strict=True):
+        k0 = 1000
+        for i, c in enumerate(r.channels):
+            if not c.endswith("Z") and "Z" not in c[-2:]:
+                continue
+            d_meas = float(np.sum(pseudo_damage(r.measured[i, k0:])))
+            if d_meas <= 0:
+                continue
+            out.setdefault(c, {"before": [], "after": []})
+            out[c]["before"].append(float(np.sum(pseudo_damage(b[i, k0:]))) / d_meas)
+            out[c]["after"].append(float(np.sum(pseudo_damage(a[i, k0:]))) / d_meas)
+    return {c: {"before": float(np.mean(v["before"])), "after": float(np.mean(v["after"]))} for c, v in out.items()}
+
+
+def _unexplained(cells, channels, level_dependent, text):
+    rows = np.flatnonzero(cells.any(axis=1))
+    cols = np.flatnonzero(cells.any(axis=0))
+    sensors = [channels[i] for i in rows]
+    comps = sorted({_sensor_component(s) or "?" for s in sensors})
+    return {"location": {"sensors": sensors, "component": comps[0] if len(comps) == 1 else None, "interface": None},
+            "band_hz": [BANDS_HZ[cols[0]][0], BANDS_HZ[cols[-1]][1]], "level_dependent": bool(level_dependent),
+            "explanation": f"significant residual at {len(sensors)} sensor(s) ({', '.join(sensors[:8])}"
+                           f"{', ...' if len(sensors) > 8 else ''}) in {BANDS_HZ[cols[0]][0]:g}-"
+                           f"{BANDS_HZ[cols[-1]][1]:g} Hz; {text}"}
+
+
+def _shifted_modes(lin0, lin1, f_max=60.0):
+    f0, f1 = _modes(lin0), _modes(lin1)
+    f0, f1 = f0[(f0 > 1.0) & (f0 < f_max)], f1[(f1 > 1.0) & (f1 < f_max)]
+    pairs = []
+    for a in f0:
+        b = f1[np.argmin(np.abs(f1 - a))] if f1.size else a
+        pairs.append((a, b))
+    pairs.sort(key=lambda ab: -abs(ab[1] - ab[0]) / ab[0])
+    new = [b for b in f1 if f0.size == 0 or np.min(np.abs(f0 - b)) / b > 0.03]
+    return pairs[:3], new
+
+
+def _explain(h: Hypothesis, p, std, lin0, lin1, located) -> str:
+    v = {n: (float(a), float(s)) for n, a, s in zip(h.names, p, std, strict=True)}
+    pairs, new = _shifted_modes(lin0, lin1)
+    shifts = ", ".join(f"{a:.2f} -> {b:.2f} Hz" for a, b in pairs if abs(b - a) > 0.005)
+    where = ", ".join(located[:6]) + (", ..." if len(located) > 6 else "")
+    if h.physics == "added_mass":
+        m, s = v["mass_kg"]
+        return (f"A mass the model does not carry is attached near {h.location} ({h.component}): "
+                f"{m:.1f} +- {s:.1f} kg rigidly fixed there lowers the modes that move that point "
+                f"({shifts or 'small shifts'}); sensors {where} see it.")
+    if h.physics == "drive_linkage_compliance":
+        k, _ = v["stiffness_n_per_m"]
+        m, _ = v["mass_kg"]
+        c, _ = v["damping_n_s_per_m"]
+        extra = f"; a new resonance at {', '.join(f'{b:.1f} Hz' for b in new)}" if new else ""
+        return (f"The drive linkage is not rigid: {k:.3g} N/m with {c:.3g} N s/m and {m:.1f} kg at the pin put a "
+                f"linkage resonance into the system that every frame sensor sees{extra} ({shifts}).")
+    if h.physics == "modal_damping":
+        f, s = v["factor"]
+        return (f"The modal damping of {h.location} is {f:.2f} +- {s:.2f} times what the model assumes: "
+                f"resonance peaks at {where} are {'lower' if f > 1 else 'higher'} than simulated; "
+                f"frequencies agree.")
+    if h.physics == "sensor_gain":
+        g, s = v["gain"]
+        return (f"Sensor {h.location} reads {100 * (g - 1):+.1f} +- {100 * s:.1f} % against the model at all "
+                f"frequencies while its neighbours agree: its sensitivity (calibration) is wrong, not the "
+                f"structure.")
+    values = ", ".join(f"{n} = {a:.3g} +- {s:.2g}" for n, (a, s) in v.items())
+    return f"{h.physics} at {h.location}: {values} ({shifts})."

@@ -1,0 +1,166 @@
+"""Compare a rig model with recordings: residuals, their significance, error metrics.
+
+A recording's drive channel (the controller's piston displacement, 204.8 Hz) drives the
+model (:func:`~exudyn_study.simulate.simulate_linear`, exact); the residual is
+``e = a_measured - a_simulated`` per channel.
+
+Significance (:func:`significance_map`) uses the fact that a model error leaves a residual
+*coherent with the drive* (``e = (H_true - H_model) u + noise``), while a right model leaves
+only measurement noise, which is not: the magnitude-squared coherence ``g2`` between drive
+and residual over ``n_d`` independent Welch segments has, under "nothing missing", the
+distribution ``P(g2 > x) = (1 - x)^(n_d - 1)``. Per channel and band the mean coherence is
+compared with its null mean ``1/n_d`` (z-score over the band's bins), and a mismatch counts
+only if it is significant (``z > z_threshold``, Bonferroni-sized for all channel-band cells)
+*and* its coherent residual amplitude is at least ``min_effect`` of the response in that
+band (smaller errors are below what a rig model can be asked for: 0.5 % by default).
+
+Error metric (:func:`relative_errors`): per channel the band-limited (3-60 Hz) rms of the
+residual over that of the measurement; the summary is their quadratic mean over channels.
+"""
+
+from __future__ import annotations
+
+import math
+from dataclasses import dataclass, field
+
+import numpy as np
+from scipy import signal as sps
+
+from ..errors import InputError
+
+__all__ = ["RigRecording", "prepare", "band_filter", "significance_map", "relative_errors", "BANDS_HZ",
+           "METRIC", "summary_error"]
+
+RATE_HZ = 1000.0
+SKIP_S = 1.0  # start-up (fade-in) not compared
+BAND_HZ = (3.0, 60.0)
+#: bands of the residual map (Hz)
+BANDS_HZ = ((3.0, 8.0), (8.0, 13.0), (13.0, 18.0), (18.0, 24.0), (24.0, 30.0), (30.0, 37.0), (37.0, 45.0),
+            (45.0, 52.0), (52.0, 60.0))
+METRIC = ("relative band-limited (3-60 Hz) rms error of the simulated accelerations, per channel "
+          "rms(a_sim - a_meas) / rms(a_meas); summary: quadratic mean over channels")
+
+
+@dataclass
+class RigRecording:
+    """A recording prepared for comparison: drive at 1000 Hz, accelerations in model sensor order."""
+
+    name: str
+    drive: object  # exudyn_study.model.Drive
+    measured: np.ndarray  # (n_channels, n)
+    channels: tuple
+    drive_rms_m: float
+    filtered: np.ndarray = field(default=None, repr=False)  # band-passed measured, edges cut
+    scale: np.ndarray = field(default=None, repr=False)  # 1 / rms(filtered) per channel
+
+
+def _sos():
+    return sps.butter(4, BAND_HZ, btype="bandpass", fs=RATE_HZ, output="sos")
+
+
+def band_filter(x: np.ndarray) -> np.ndarray:
+    """Zero-phase 3-60 Hz band-pass, the start-up and 0.5 s at the end cut, decimated by 4."""
+    y = sps.sosfiltfilt(_sos(), x, axis=-1)
+    k0, k1 = int(SKIP_S * RATE_HZ), y.shape[-1] - int(0.5 * RATE_HZ)
+    return y[..., k0:k1:4]
+
+
+def prepare(recording, sensor_names, name: str = "", max_duration_s: float | None = None) -> RigRecording:
+    """Align a recording with the model's sensors and resample its drive to 1000 Hz.
+
+    Raises
+    ------
+    InputError
+        No drive channel, a channel the model lacks, a wrong acceleration rate, NaN.
+    """
+    from ..model.rig import Drive
+    from ..signals import resample
+
+    who = f"recording {name!r}" if name else "recording"
+    drives = [ch for ch in recording if ch.role == "drive"]
+    if not drives:
+        raise InputError(f"{who} has no drive channel (role 'drive'); the diagnosis replays the recorded drive")
+    acc = [ch for ch in recording if ch.role == "response" and ch.quantity == "acceleration"]
+    unknown = [ch.name for ch in acc if ch.name not in sensor_names]
+    if unknown:
+        raise InputError(f"{who}: channels {unknown} are not sensors of the model; the model has "
+                         f"{list(sensor_names)[:6]}...: use the model the recordings were taken on")
+    if not acc:
+        raise InputError(f"{who} has no acceleration channels")
+    for ch in acc:
+        if abs(ch.sample_rate_hz - RATE_HZ) > 1e-9:
+            raise InputError(f"{who}: channel {ch.name} at {ch.sample_rate_hz} Hz; expected {RATE_HZ} Hz")
+    d = drives[0]
+    u = np.asarray(d.data, dtype=float)
+    if abs(d.sample_rate_hz - RATE_HZ) > 1e-9:
+        u = resample(u, d.sample_rate_hz, RATE_HZ)
+    n = min(u.size, min(ch.n_samples for ch in acc))
+    if max_duration_s is not None:
+        n = min(n, int((max_duration_s + SKIP_S + 0.5) * RATE_HZ))
+    if n < int(6 * RATE_HZ):
+        raise InputError(f"{who} lasts {n / RATE_HZ:.1f} s; expected at least 6 s")
+    meas = np.array([ch.data[:n] for ch in acc], dtype=float)
+    if not (np.all(np.isfinite(meas)) and np.all(np.isfinite(u[:n]))):
+        raise InputError(f"{who} has non-finite samples; clean or cut the recording")
+    drive = Drive()
+    drive.set_signal(u[:n], RATE_HZ)
+    filt = band_filter(meas)
+    rms = np.sqrt(np.mean(filt**2, axis=1))
+    return RigRecording(name, drive, meas, tuple(ch.name for ch in acc), float(np.std(u[:n])), filt,
+                        1.0 / np.maximum(rms, 1e-12))
+
+
+def relative_errors(rec: RigRecording, simulated: np.ndarray) -> np.ndarray:
+    """Per-channel band-limited relative rms error (see :data:`METRIC`)."""
+    e = band_filter(rec.measured - simulated)
+    return np.sqrt(np.mean(e**2, axis=1)) * rec.scale
+
+
+def summary_error(per_channel: np.ndarray) -> float:
+    """Quadratic mean over channels."""
+    return float(np.sqrt(np.mean(np.asarray(per_channel) ** 2)))
+
+
+@dataclass
+class SignificanceMap:
+    """Per channel x band: z-score of drive-residual coherence, coherent residual share, significant cells."""
+
+    channels: tuple
+    bands_hz: tuple
+    z: np.ndarray
+    effect: np.ndarray  # coherent residual amplitude / response amplitude in the band
+    significant: np.ndarray
+    n_segments: int
+    z_threshold: float
+
+
+def significance_map(rec: RigRecording, simulated: np.ndarray, nperseg: int = 4096, min_effect: float = 0.005,
+                     p_value: float = 1e-3) -> SignificanceMap:
+    """Where the residual is significantly coherent with the drive (see the module docstring)."""
+    k0 = int(SKIP_S * RATE_HZ)
+    u = rec.drive.samples[k0:]
+    e = (rec.measured - simulated)[:, k0:]
+    y = rec.measured[:, k0:]
+    f, suu = sps.welch(u, RATE_HZ, nperseg=nperseg, noverlap=0)
+    _, sue = sps.csd(u[None, :], e, RATE_HZ, nperseg=nperseg, noverlap=0)
+    _, see = sps.welch(e, RATE_HZ, nperseg=nperseg, noverlap=0)
+    _, syy = sps.welch(y, RATE_HZ, nperseg=nperseg, noverlap=0)
+    g2 = np.abs(sue) ** 2 / (suu[None, :] * see + 1e-300)
+    n_d = max(2, u.size // nperseg)
+    coherent = np.maximum(g2 - 1.0 / n_d, 0.0) * see  # residual power coherent with the drive, null bias removed
+    n_cells = len(rec.channels) * len(BANDS_HZ)
+    # one-sided z threshold for a family-wise p_value over all cells (Bonferroni)
+    from scipy.stats import norm
+
+    z_thr = float(norm.isf(p_value / n_cells))
+    z = np.zeros((len(rec.channels), len(BANDS_HZ)))
+    eff = np.zeros_like(z)
+    mean0 = 1.0 / n_d
+    var0 = (n_d - 1) / (n_d**2 * (n_d + 1))  # variance of Beta(1, n_d - 1)
+    for j, (lo, hi) in enumerate(BANDS_HZ):
+        b = (f >= lo) & (f < hi)
+        nb = int(b.sum())
+        z[:, j] = (g2[:, b].mean(axis=1) - mean0) / math.sqrt(var0 / nb)
+        eff[:, j] = np.sqrt(coherent[:, b].sum(axis=1) / np.maximum(syy[:, b].sum(axis=1), 1e-300))
+    sig = (z > z_thr) & (eff > min_effect)
+    return SignificanceMap(rec.channels, BANDS_HZ, z, eff, sig, n_d, z_thr)

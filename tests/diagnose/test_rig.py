@@ -1,0 +1,90 @@
+"""The rig path of the diagnosis on the mini frame: finds a hidden effect, says nothing when nothing is missing,
+rejects bad input. Truth recordings come from the virtual rig (the diagnosis never sees the truth)."""
+
+from __future__ import annotations
+
+import dataclasses
+import sys
+from pathlib import Path
+
+import numpy as np
+import pytest
+
+from exudyn_study.errors import InputError
+from exudyn_study.virtual_rig import Augment, Scenario, virtual_recording
+
+sys.path.insert(0, str(Path(__file__).resolve().parents[1]))
+from rig_fixtures import FRAME_SENSORS, mini_bodies  # noqa: E402
+
+DURATION_S = 16.0
+
+
+@pytest.fixture(scope="module")
+def bodies():
+    pytest.importorskip("exudyn")
+    return mini_bodies()
+
+
+def _recordings(bodies, augmentations, seed=5):
+    sc = Scenario("mini", "test", variant=1, damping="constant-2", augmentations=augmentations).with_seed(seed)
+    train = virtual_recording(sc, "white-noise", DURATION_S, bodies=bodies, sensors=FRAME_SENSORS)
+    hold = virtual_recording(sc, "test", DURATION_S, bodies=bodies, sensors=FRAME_SENSORS)
+    return train, hold
+
+
+def _diagnose(bodies, train, hold, **kw):
+    from exudyn_study.diagnose.rig import RigDiagnosisSettings, diagnose_rig
+
+    st = RigDiagnosisSettings()
+    st.train_duration_s, st.screen_duration_s = 12.0, 8.0
+    return diagnose_rig(1, [train], [hold], damping="constant-2", bodies=bodies, sensors=FRAME_SENSORS,
+                        settings=st, **kw)
+
+
+def test_nothing_missing_gives_no_finding(bodies):
+    train, hold = _recordings(bodies, ())
+    d = _diagnose(bodies, train, hold)
+    assert d.mismatch_found is False and not d.findings and not d.unexplained
+
+
+def test_hidden_mass_is_named_located_fitted_and_improves_held_out(bodies):
+    train, hold = _recordings(bodies, (Augment("added_mass", "ARFHZ", {"mass_kg": 12.0}),))
+    figures = {}
+    d = _diagnose(bodies, train, hold, figures=figures)
+    assert d.mismatch_found
+    f = d.findings[0]
+    assert f.physics == "added_mass"
+    assert "ARFHZ" in f.location["sensors"]
+    assert f.parameters["mass_kg"]["value"] == pytest.approx(12.0, rel=0.05)
+    assert f.fit["holdout_after"] < 0.5 * f.fit["holdout_before"]
+    assert set(figures) >= {"residual_map", "measured", "nominal_T", "after_T", "channels"}
+
+
+def test_wrong_sensor_gain_is_not_mistaken_for_structure(bodies):
+    train, hold = _recordings(bodies, (Augment("sensor_gain", "ARHBZ", {"gain": 1.2}),))
+    d = _diagnose(bodies, train, hold)
+    f = d.findings[0]
+    assert f.physics == "sensor_gain" and f.location["sensors"] == ["ARHBZ"]
+    assert f.parameters["gain"]["value"] == pytest.approx(1.2, rel=0.02)
+
+
+def test_bad_input(bodies):
+    from exudyn_study.diagnose.rig import diagnose_rig
+    from exudyn_study.recording import Recording
+
+    train, hold = _recordings(bodies, ())
+    with pytest.raises(InputError, match="no held-out recording"):
+        diagnose_rig(1, [train], [], bodies=bodies, sensors=FRAME_SENSORS)
+    fewer = Recording(tuple(ch for ch in hold if ch.name != "ARFVY"), dict(hold.metadata))
+    with pytest.raises(InputError, match="different sensor layouts"):
+        diagnose_rig(1, [train], [fewer], bodies=bodies, sensors=FRAME_SENSORS)
+    no_drive = Recording(tuple(ch for ch in hold if ch.role != "drive"), dict(hold.metadata))
+    with pytest.raises(InputError, match="has no drive channel"):
+        _diagnose(bodies, train, no_drive.__class__(tuple(no_drive) + (), dict(no_drive.metadata)))
+    renamed = Recording(tuple(dataclasses.replace(ch, name="XXXZ") if ch.name == "ARFVY" else ch for ch in train),
+                        dict(train.metadata))
+    renamed_hold = Recording(tuple(dataclasses.replace(ch, name="XXXZ") if ch.name == "ARFVY" else ch for ch in hold),
+                             dict(hold.metadata))
+    with pytest.raises(InputError, match=r"channels \['XXXZ'\] are not sensors of the model"):
+        _diagnose(bodies, renamed, renamed_hold)
+    assert np.isfinite(train.channel("ARFVZ").data).all()
