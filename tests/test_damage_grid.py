@@ -261,3 +261,32 @@ def test_calibration_file(bodies, tmp_path):
     assert resolve_damping(3, "suggested").ratios["frame"] == 0.015  # thesis Table 6
     with pytest.raises(InputError, match="needs a calibration"):
         resolve_damping(1, "suggested")
+
+
+def test_study_script_smoke(bodies, measured, tmp_path, monkeypatch, capsys):
+    """studies/damage_grid.py end to end on the mini frame (build_model replaced)."""
+    import importlib.util
+    from pathlib import Path
+
+    import exudyn_study.model as model_pkg
+
+    build = mini_builder(bodies)
+
+    def build_model(variant, damping="adams-default", **kwargs):
+        return build(variant, damping)
+
+    monkeypatch.setattr(model_pkg, "build_model", build_model)
+    meas = tmp_path / "meas"
+    meas.mkdir()
+    write_recording(measured["test"], meas / "mini_test.h5")
+    script = Path(__file__).resolve().parents[1] / "studies" / "damage_grid.py"
+    spec = importlib.util.spec_from_file_location("study_damage_grid", script)
+    study = importlib.util.module_from_spec(spec)
+    spec.loader.exec_module(study)
+    out = tmp_path / "out"
+    assert study.main(["--measured-dir", str(meas), "--out", str(out), "--models", "1", "--dampings", "step",
+                       "--no-plots"]) == 0
+    text = capsys.readouterr().out
+    assert "grid of 1 cells: wall time" in text and (out / "damage_grid.csv").is_file()
+    assert study.main(["--measured-dir", str(tmp_path / "absent"), "--out", str(out)]) == 2
+    assert "does not exist" in capsys.readouterr().err
