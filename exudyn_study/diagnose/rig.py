@@ -333,12 +333,14 @@ def _diagnose_rig(variant: int, train: Sequence, holdout: Sequence, damping="ada
             "residual_effect": [m.effect.round(4).tolist() for m in maps], "channels": list(channels)}
     if figures is not None:
         _figures_before(figures, tr + ho, train_recs + hold_recs, sims_tr + sims_ho, lin0, sensor_names, maps)
-        figures["train"], figures["holdout"] = [n for n, _ in tr], [n for n, _ in ho]
+        figures["train"] = [str(n).rsplit("/", 1)[-1] for n, _ in tr]
+        figures["holdout"] = [str(n).rsplit("/", 1)[-1] for n, _ in ho]
     if not significant.any():
         meta["wall_s"] = time.perf_counter() - t_start
         say("no significant mismatch: no missing physics found")
         return Diagnosis(False, [], [], meta)
-    located = [channels[i] for i in np.flatnonzero(significant.any(axis=1))]
+    strength = np.max([np.where(m.significant, m.effect, 0.0) for m in maps], axis=0).max(axis=1)
+    located = [channels[i] for i in np.argsort(-strength) if significant[i].any()]  # strongest first
     bands = [BANDS_HZ[j] for j in np.flatnonzero(significant.any(axis=0))]
     band_hz = (min(b[0] for b in bands), max(b[1] for b in bands))
     level_dependent = _level_dependent(train_recs + hold_recs, lin0, sensor_names)
@@ -368,6 +370,9 @@ def _diagnose_rig(variant: int, train: Sequence, holdout: Sequence, damping="ada
             if body == "rear_foundation":
                 continue
             idx = np.asarray(model.mbs.systemData.GetNodeLTGODE2(handle.modal_node), dtype=int)
+            freq = np.asarray(handle.body.frequencies_hz, dtype=float)
+            n_rigid = idx.size - freq.size  # linear CMS bodies carry 6 rigid-body coordinates first
+            idx = idx[n_rigid:][freq <= MODAL_DAMPING_MAX_HZ]
             hyps.append(ModalDampingHypothesis(body, lin0, idx, component=body, sensors=tuple(located)))
     if want("sensor_gain"):
         for ch in located:
@@ -401,8 +406,11 @@ def _diagnose_rig(variant: int, train: Sequence, holdout: Sequence, damping="ada
         fitted.append({"h": h, "p": p, "std": std, "rss": rss, "aic": _aic(rss, p.size, n_eff),
                        "identifiable": bool(np.all(rel_std < st.max_relative_std) and not at_bound),
                        "improvement": 1.0 - math.sqrt(rss / rss0), "score": float(scores[i]), "nfev": nfev})
-    meta["candidates"] = [{"candidate": f["h"].label, "aic": round(f["aic"] - aic0, 1),
+    meta["candidates"] = [{"physics": f["h"].physics, "location": f["h"].location,
+                           "signature_score": round(f["score"], 4), "aic": round(f["aic"] - aic0, 1),
                            "improvement": round(f["improvement"], 4), "identifiable": f["identifiable"],
+                           "rejected": None if f["identifiable"] and f["improvement"] >= st.min_improvement else (
+                               "not identifiable" if not f["identifiable"] else "explains too little"),
                            "parameters": dict(zip(f["h"].names, np.round(f["p"], 6).tolist(), strict=True))}
                           for f in fitted]
     ok = [f for f in fitted if f["identifiable"] and f["improvement"] >= st.min_improvement]
@@ -419,9 +427,9 @@ def _diagnose_rig(variant: int, train: Sequence, holdout: Sequence, damping="ada
         fit = {"train_before": float(np.mean(err_tr0)), "train_after": float(np.mean(err_tr1)),
                "holdout_before": float(np.mean(err_ho0)), "holdout_after": float(np.mean(err_ho1)),
                "metric": METRIC,
-               "per_channel": {c: {"holdout_before": float(np.mean([e[k] for e in per_ho0])),
-                                   "holdout_after": float(np.mean([e[k] for e in per_ho1]))}
-                               for k, c in enumerate(channels)},
+               "per_channel": {str(name).rsplit("/", 1)[-1]: {c: {"before": float(e0[k]), "after": float(e1[k])}
+                                                               for k, c in enumerate(channels)}
+                               for (name, _), e0, e1 in zip(ho, per_ho0, per_ho1, strict=True)},
                "relative_pseudo_damage": damage}
         params = {n: {"value": float(v), "unit": u, "std": float(s)}
                   for n, v, u, s in zip(h.names, p, h.units, best["std"], strict=True)}
@@ -455,6 +463,10 @@ def _diagnose_rig(variant: int, train: Sequence, holdout: Sequence, damping="ada
     meta["wall_s"] = time.perf_counter() - t_start
     return Diagnosis(True, findings, unexplained, meta)
 
+
+#: body modes whose damping the modal-damping candidate scales (free-free frequency, Hz): the
+#: ones that shape the 3-60 Hz response
+MODAL_DAMPING_MAX_HZ = 200.0
 
 #: screening grids of one-parameter candidates (values tried; the best counts)
 SCREEN_GRID = {"added_mass": (2.0, 6.0, 15.0, 40.0, 100.0), "modal_damping": (0.3, 0.6, 1.6, 3.0),

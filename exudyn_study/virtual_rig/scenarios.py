@@ -220,22 +220,33 @@ def random_scenario(index: int, effect: str | None = None, rng_seed: int = 2026)
     e = entry(effect)
     params = {}
     for p in e.parameters:
-        lo, hi = _BLIND_RANGES.get((effect, p.name), (p.lower, p.upper))
-        if lo > 0 and hi / lo > 10:
-            params[p.name] = float(math.exp(rng.uniform(math.log(lo), math.log(hi))))
-        else:
-            params[p.name] = float(rng.uniform(lo, hi))
+        if (effect, p.name) in _BLIND_FIXED:
+            params[p.name] = _BLIND_FIXED[(effect, p.name)]
+            continue
+        if (effect, p.name) not in _BLIND_RANGES:
+            continue  # the entry's default
+        lo, hi = _BLIND_RANGES[(effect, p.name)]
+        value = float(math.exp(rng.uniform(math.log(lo), math.log(hi))))
+        if (effect, p.name) in _BLIND_RATIO and rng.uniform() < 0.5:
+            value = 1.0 / value  # a factor below one as often as above
+        params[p.name] = p.check(value, effect)
     return Scenario(name=f"blind-{index:02d}", description="blind scenario", variant=variant, seed=seed,
                     augmentations=(Augment(effect, location, params),)).with_seed(seed)
 
 
-#: sub-ranges of the entries' bounds from which blind effects are drawn (large enough to matter,
-#: within what a rig could hide); (entry, parameter) -> (low, high)
+#: sub-ranges of the entries' bounds from which blind effects are drawn log-uniformly (large
+#: enough to matter, within what a rig could hide); (entry, parameter) -> (low, high).
+#: Parameters not listed keep the entry's default.
 _BLIND_RANGES = {
     ("added_mass", "mass_kg"): (5.0, 40.0),
     ("drive_linkage_compliance", "stiffness_n_per_m"): (8e6, 5e7),
     ("drive_linkage_compliance", "damping_n_s_per_m"): (1e3, 4e3),
     ("drive_linkage_compliance", "mass_kg"): (10.0, 40.0),
-    ("modal_damping", "factor"): (0.3, 3.0),
-    ("sensor_gain", "gain"): (0.7, 1.4),
+    ("modal_damping", "factor"): (1.4, 3.0),
+    ("sensor_gain", "gain"): (1.08, 1.4),
 }
+#: parameters set, not drawn: modal damping scales the body modes below 200 Hz (the ones that
+#: shape the response in the drive band; Adams default damping is 100 % above 1 kHz)
+_BLIND_FIXED = {("modal_damping", "max_frequency_hz"): 200.0}
+#: ratio parameters drawn as their value or its inverse with equal probability
+_BLIND_RATIO = {("modal_damping", "factor"), ("sensor_gain", "gain")}
