@@ -29,7 +29,6 @@ from pathlib import Path
 
 import numpy as np
 
-
 #: truth parameters that are fixed by the generator, not drawn (not scored)
 FIXED = {"modal_damping": ("max_frequency_hz", "min_frequency_hz")}
 
@@ -43,8 +42,11 @@ def _point(model, location):
 def score(truth: dict, diagnosis, model) -> dict:
     """Compare a diagnosis with the scenario's truth (the only place the truth is read)."""
     augs = truth["augmentations"]
-    out = {"effect": augs[0]["physics"] if augs else "none", "found": [f.physics for f in diagnosis.findings],
-           "mismatch_found": diagnosis.mismatch_found}
+    out = {
+        "effect": augs[0]["physics"] if augs else "none",
+        "found": [f.physics for f in diagnosis.findings],
+        "mismatch_found": diagnosis.mismatch_found,
+    }
     if not augs:
         ok = not diagnosis.mismatch_found and not diagnosis.findings
         out.update(physics_ok=ok, location_ok=ok, parameters_ok=ok, holdout_ok=ok)
@@ -53,13 +55,18 @@ def score(truth: dict, diagnosis, model) -> dict:
     f = diagnosis.findings[0] if diagnosis.findings else None
     out["physics_ok"] = bool(f is not None and f.physics == aug["physics"])
     if not out["physics_ok"]:
-        out.update(location_ok=False, parameters_ok=False, holdout_ok=bool(
-            f is not None and f.fit["holdout_after"] <= 0.5 * f.fit["holdout_before"]))
+        out.update(
+            location_ok=False,
+            parameters_ok=False,
+            holdout_ok=bool(f is not None and f.fit["holdout_after"] <= 0.5 * f.fit["holdout_before"]),
+        )
         return out
     loc = f.location
     if aug["physics"] == "added_mass":
         found = f"chassis.{loc['interface']}" if loc.get("interface") else (loc["sensors"] or [None])[0]
-        dist = float(np.linalg.norm(_point(model, found) - _point(model, aug["location"]))) if found else np.inf
+        dist = (
+            float(np.linalg.norm(_point(model, found) - _point(model, aug["location"]))) if found else np.inf
+        )
         out["location_error_m"] = dist
         out["location_ok"] = dist <= 0.25
     elif aug["physics"] == "sensor_gain":
@@ -110,16 +117,24 @@ def main(argv=None) -> int:
             t_diag = time.perf_counter() - t0
             truth = json.loads((Path(tmp) / truth_name(sc.name)).read_text())
         row = score(truth, d, ref_model)
-        row.update(scenario=sc.name, truth=truth["augmentations"], wall_recordings_s=round(t_rec, 1),
-                   wall_diagnosis_s=round(t_diag, 1),
-                   findings=[f.to_dict() for f in d.findings], unexplained=list(d.unexplained))
+        row.update(
+            scenario=sc.name,
+            truth=truth["augmentations"],
+            wall_recordings_s=round(t_rec, 1),
+            wall_diagnosis_s=round(t_diag, 1),
+            findings=[f.to_dict() for f in d.findings],
+            unexplained=list(d.unexplained),
+        )
         for f in row["findings"]:
             f["fit"].pop("per_channel", None)
         rows.append(row)
-        print(f"{sc.name}: truth {row['effect']:26s} found {row['found']!s:32s} physics {row['physics_ok']!s:5s} "
-              f"location {row['location_ok']!s:5s} params {row['parameters_ok']!s:5s} "
-              f"holdout {row.get('holdout_before', float('nan')):.3f}->{row.get('holdout_after', float('nan')):.3f} "
-              f"({t_diag:.0f} s)", flush=True)
+        print(
+            f"{sc.name}: truth {row['effect']:26s} found {row['found']!s:32s} physics {row['physics_ok']!s:5s} "
+            f"location {row['location_ok']!s:5s} params {row['parameters_ok']!s:5s} "
+            f"holdout {row.get('holdout_before', float('nan')):.3f}->{row.get('holdout_after', float('nan')):.3f} "
+            f"({t_diag:.0f} s)",
+            flush=True,
+        )
         tmp_path = results_path.with_suffix(".tmp")
         tmp_path.write_text(json.dumps(rows, indent=1, default=float))
         tmp_path.replace(results_path)
@@ -129,12 +144,16 @@ def main(argv=None) -> int:
     def share(key, group):
         return f"{sum(bool(r[key]) for r in group)}/{len(group)}"
 
-    print(f"\n{len(effect)} scenarios with an effect: physics {share('physics_ok', effect)}, location "
-          f"{share('location_ok', effect)}, parameters within 15 % {share('parameters_ok', effect)}, held-out error "
-          f"halved {share('holdout_ok', effect)}")
+    print(
+        f"\n{len(effect)} scenarios with an effect: physics {share('physics_ok', effect)}, location "
+        f"{share('location_ok', effect)}, parameters within 15 % {share('parameters_ok', effect)}, held-out error "
+        f"halved {share('holdout_ok', effect)}"
+    )
     print(f"{len(none)} scenarios without an effect: no finding {share('physics_ok', none)}")
     walls = [r["wall_diagnosis_s"] for r in rows]
-    print(f"diagnosis wall time: median {np.median(walls):.0f} s, max {np.max(walls):.0f} s; results {results_path}")
+    print(
+        f"diagnosis wall time: median {np.median(walls):.0f} s, max {np.max(walls):.0f} s; results {results_path}"
+    )
     return 0
 
 

@@ -9,15 +9,27 @@ __all__ = ["configure", "run"]
 
 def configure(parser: argparse.ArgumentParser) -> None:
     """Add the ``virtual-test`` arguments."""
-    parser.add_argument("--scenario", required=True,
-                        help="scenario name: none, thesis, or a catalogue entry name (single effect); "
-                             "'list' prints them")
-    parser.add_argument("--signal", nargs="+", default=["white-noise"],
-                        help="one or more of white-noise, test, test-50")
-    parser.add_argument("--level", type=float, nargs="+", default=[1.0],
-                        help="drive amplitude factor(s) relative to the scenario's (default 1)")
-    parser.add_argument("--duration", type=float, default=None,
-                        help="duration in s (default 120 s white noise, 60 s test signals)")
+    parser.add_argument(
+        "--scenario",
+        required=True,
+        help="scenario name: none, thesis, or a catalogue entry name (single effect); 'list' prints them",
+    )
+    parser.add_argument(
+        "--signal", nargs="+", default=["white-noise"], help="one or more of white-noise, test, test-50"
+    )
+    parser.add_argument(
+        "--level",
+        type=float,
+        nargs="+",
+        default=[1.0],
+        help="drive amplitude factor(s) relative to the scenario's (default 1)",
+    )
+    parser.add_argument(
+        "--duration",
+        type=float,
+        default=None,
+        help="duration in s (default 120 s white noise, 60 s test signals)",
+    )
     parser.add_argument("--seed", type=int, default=None, help="override the scenario's seed")
     parser.add_argument("--cache-dir", default=None, help="flexible-body cache directory")
     parser.add_argument("--out", default=None, help="output directory (must exist)")

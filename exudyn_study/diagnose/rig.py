@@ -29,10 +29,25 @@ from collections.abc import Callable, Sequence
 import numpy as np
 
 from ..errors import InputError
-from .rig_compare import (BANDS_HZ, METRIC, band_filter, prepare, relative_errors, significance_map,
-                          summary_error)
-from .rig_hypotheses import (AddedMassHypothesis, AffineHypothesis, Hypothesis, ModalDampingHypothesis,
-                             SensorGainHypothesis, log_bounds, to_params, to_x)
+from .rig_compare import (
+    BANDS_HZ,
+    METRIC,
+    band_filter,
+    prepare,
+    relative_errors,
+    significance_map,
+    summary_error,
+)
+from .rig_hypotheses import (
+    AddedMassHypothesis,
+    AffineHypothesis,
+    Hypothesis,
+    ModalDampingHypothesis,
+    SensorGainHypothesis,
+    log_bounds,
+    to_params,
+    to_x,
+)
 from .schema import Diagnosis, Finding
 
 __all__ = ["diagnose_rig", "RigDiagnosisSettings"]
@@ -47,6 +62,7 @@ class RigDiagnosisSettings:
     screen_duration_s: float = 12.0  # seconds of the first training recording used for screening
     n_fit: int = 4  # candidates fitted in full after screening
     min_improvement: float = 0.3  # a finding must cut the training error by this share
+    max_findings: int = 3  # rounds of locate-name-fit
     max_relative_std: float = 0.3
     min_effect: float = 0.005
     p_value: float = 1e-3
@@ -71,8 +87,10 @@ def _check_layouts(named):
         names = sorted(ch.name for ch in rec if ch.role == "response")
         if names != ref_set:
             diff = sorted(set(names) ^ set(ref_set))
-            raise InputError(f"recordings {ref_name!r} and {name!r} have different sensor layouts (differ in "
-                             f"{diff[:6]}); diagnose recordings of one test set-up")
+            raise InputError(
+                f"recordings {ref_name!r} and {name!r} have different sensor layouts (differ in "
+                f"{diff[:6]}); diagnose recordings of one test set-up"
+            )
 
 
 class _Evaluator:
@@ -162,7 +180,7 @@ def _fit(h: Hypothesis, ev: _Evaluator, channels, max_nfev=40):
 
     def fun(x):
         p = to_params(h, x)
-        return ev.residual_vector(h.system(p), h.gains(p, channels))
+        return ev.residual_vector(h.system(p), _gains(h, p, channels))
 
     x0 = np.clip(to_x(h, h.start), lo + 1e-9, hi - 1e-9)
     res = least_squares(fun, x0, bounds=(lo, hi), diff_step=1e-3, max_nfev=max_nfev, x_scale=1.0)
@@ -224,9 +242,19 @@ def _modes(lin):
     return np.sqrt(np.maximum(w2, 0.0)) / (2 * math.pi)
 
 
-def diagnose_rig(variant: int, train: Sequence, holdout: Sequence, damping="adams-default",
-                 progress: Callable | None = None, bodies=None, sensors=None, candidates: Sequence[str] | None = None,
-                 settings: RigDiagnosisSettings | None = None, cache_dir=None, figures: dict | None = None) -> Diagnosis:
+def diagnose_rig(
+    variant: int,
+    train: Sequence,
+    holdout: Sequence,
+    damping="adams-default",
+    progress: Callable | None = None,
+    bodies=None,
+    sensors=None,
+    candidates: Sequence[str] | None = None,
+    settings: RigDiagnosisSettings | None = None,
+    cache_dir=None,
+    figures: dict | None = None,
+) -> Diagnosis:
     """Diagnose the mismatch between model ``variant`` and the recordings (see :func:`_diagnose_rig`).
 
     ``figures``: a dict filled with the arrays of the report's figures
@@ -238,13 +266,34 @@ def diagnose_rig(variant: int, train: Sequence, holdout: Sequence, damping="adam
     from threadpoolctl import threadpool_limits
 
     with threadpool_limits(1):
-        return _diagnose_rig(variant, train, holdout, damping, progress, bodies, sensors, candidates, settings,
-                             cache_dir, figures)
+        return _diagnose_rig(
+            variant,
+            train,
+            holdout,
+            damping,
+            progress,
+            bodies,
+            sensors,
+            candidates,
+            settings,
+            cache_dir,
+            figures,
+        )
 
 
-def _diagnose_rig(variant: int, train: Sequence, holdout: Sequence, damping="adams-default",
-                  progress: Callable | None = None, bodies=None, sensors=None, candidates: Sequence[str] | None = None,
-                  settings: RigDiagnosisSettings | None = None, cache_dir=None, figures=None) -> Diagnosis:
+def _diagnose_rig(
+    variant: int,
+    train: Sequence,
+    holdout: Sequence,
+    damping="adams-default",
+    progress: Callable | None = None,
+    bodies=None,
+    sensors=None,
+    candidates: Sequence[str] | None = None,
+    settings: RigDiagnosisSettings | None = None,
+    cache_dir=None,
+    figures=None,
+) -> Diagnosis:
     """Diagnose the mismatch between model ``variant`` and the recordings.
 
     Parameters
@@ -273,8 +322,8 @@ def _diagnose_rig(variant: int, train: Sequence, holdout: Sequence, damping="ada
         No training or held-out recording, different sensor layouts, no drive channel,
         channels the model lacks.
     """
-    from ..model import build_model, build_model_from_bodies
     from ..modal import linearize
+    from ..model import build_model, build_model_from_bodies
     from ..physics import CATALOGUE
     from ..physics.entries import location_point
     from ..physics.nonlinear import marker_displacement_map
@@ -287,25 +336,50 @@ def _diagnose_rig(variant: int, train: Sequence, holdout: Sequence, damping="ada
     if not tr:
         raise InputError("no training recording given (--train): the diagnosis fits on it")
     if not ho:
-        raise InputError("no held-out recording given (--holdout): the diagnosis proves a fit on recordings it "
-                         "was not fitted to; give another signal or excitation level")
+        raise InputError(
+            "no held-out recording given (--holdout): the diagnosis proves a fit on recordings it "
+            "was not fitted to; give another signal or excitation level"
+        )
     _check_layouts(tr + ho)
     damping_fn = parse_damping(damping) if isinstance(damping, str) else damping
 
     def build():
         if bodies is None:
-            return build_model(variant, damping=damping_fn, sensors=sensors, cache_dir=cache_dir, exudyn_mesh="used")
-        return build_model_from_bodies(bodies, variant, damping=damping_fn, sensors=sensors, exudyn_mesh="used")
+            return build_model(
+                variant, damping=damping_fn, sensors=sensors, cache_dir=cache_dir, exudyn_mesh="used"
+            )
+        return build_model_from_bodies(
+            bodies, variant, damping=damping_fn, sensors=sensors, exudyn_mesh="used"
+        )
+
+    from ..physics import entry
+
+    wanted = set(candidates) if candidates is not None else None
+
+    def want(name):
+        return (wanted is None or name in wanted) and name in CATALOGUE
+
+    accepted = []  # (entry name, location, parameters) applied to the model, in order
+
+    def build_current():
+        model = build()
+        for name, loc, values in accepted:
+            entry(name).apply(model, loc, **values)
+        return model
+
+    def assembled(model):
+        sensor_names = tuple(model.sensors)
+        locations = list(sensor_names) + sorted(
+            k for k in model.interfaces if not k.startswith("rear_foundation")
+        )
+        markers = {loc: location_point(model, loc) for loc in locations}
+        model.assemble()
+        return locations, markers, linearize(model)
 
     say("building the nominal model")
     model = build()
+    locations, markers, lin0 = assembled(model)
     sensor_names = tuple(model.sensors)
-    locations = list(sensor_names) + sorted(k for k in model.interfaces if not k.startswith("rear_foundation"))
-    markers = {}
-    for loc in locations:
-        markers[loc] = location_point(model, loc)
-    model.assemble()
-    lin0 = linearize(model)
     train_recs = [prepare(r, sensor_names, n, st.train_duration_s) for n, r in tr]
     screen_recs = [prepare(r, sensor_names, n, st.screen_duration_s) for n, r in tr[:1]]
     hold_recs = [prepare(r, sensor_names, n) for n, r in ho]
@@ -314,23 +388,41 @@ def _diagnose_rig(variant: int, train: Sequence, holdout: Sequence, damping="ada
     ev_train = _Evaluator(train_recs, sensor_names, pad, exact=True)
     ev_hold = _Evaluator(hold_recs, sensor_names, pad, exact=True)
     ev_screen = _Evaluator(screen_recs, sensor_names, pad)
+    p_cell = st.p_value / (len(tr) + len(ho))
+
+    def compare(lin, gains):
+        sims_tr, sims_ho = ev_train.simulate_exact(lin, gains), ev_hold.simulate_exact(lin, gains)
+        maps = [
+            significance_map(r, s_, min_effect=st.min_effect, p_value=p_cell)
+            for r, s_ in zip(train_recs + hold_recs, sims_tr + sims_ho, strict=True)
+        ]
+        sig = np.zeros((len(channels), len(BANDS_HZ)), dtype=bool)
+        for m in maps:
+            sig |= m.significant
+        return sims_tr, sims_ho, maps, sig
 
     # 1-2 compare and locate ----------------------------------------------------------------
     say("comparing the nominal model with the recordings")
-    sims_tr, sims_ho = ev_train.simulate_exact(lin0), ev_hold.simulate_exact(lin0)
-    maps = [significance_map(r, s, min_effect=st.min_effect, p_value=st.p_value / (len(tr) + len(ho)))
-            for r, s in zip(train_recs + hold_recs, sims_tr + sims_ho, strict=True)]
-    significant = np.zeros((len(channels), len(BANDS_HZ)), dtype=bool)
-    for m in maps:
-        significant |= m.significant
+    ones = np.ones(len(channels))
+    sims_tr, sims_ho, maps, significant = compare(lin0, None)
+    sims_ho_nominal = sims_ho
     err_tr0 = [summary_error(e) for e in ev_train.errors(sims_tr)]
     err_ho0 = [summary_error(e) for e in ev_hold.errors(sims_ho)]
-    meta = {"model": int(variant), "damping": str(damping), "train": [n for n, _ in tr],
-            "holdout": [n for n, _ in ho], "metric": METRIC, "nominal_train_error": err_tr0,
-            "nominal_holdout_error": err_ho0, "significant_cells": int(significant.sum()),
-            "bands_hz": [list(b) for b in BANDS_HZ],
-            "residual_z": [m.z.round(2).tolist() for m in maps],
-            "residual_effect": [m.effect.round(4).tolist() for m in maps], "channels": list(channels)}
+    meta = {
+        "model": int(variant),
+        "damping": str(damping),
+        "train": [n for n, _ in tr],
+        "holdout": [n for n, _ in ho],
+        "metric": METRIC,
+        "nominal_train_error": err_tr0,
+        "nominal_holdout_error": err_ho0,
+        "significant_cells": int(significant.sum()),
+        "bands_hz": [list(b) for b in BANDS_HZ],
+        "residual_z": [m.z.round(2).tolist() for m in maps],
+        "residual_effect": [m.effect.round(4).tolist() for m in maps],
+        "channels": list(channels),
+        "candidates": [],
+    }
     if figures is not None:
         _figures_before(figures, tr + ho, train_recs + hold_recs, sims_tr + sims_ho, lin0, sensor_names, maps)
         figures["train"] = [str(n).rsplit("/", 1)[-1] for n, _ in tr]
@@ -339,129 +431,230 @@ def _diagnose_rig(variant: int, train: Sequence, holdout: Sequence, damping="ada
         meta["wall_s"] = time.perf_counter() - t_start
         say("no significant mismatch: no missing physics found")
         return Diagnosis(False, [], [], meta)
-    strength = np.max([np.where(m.significant, m.effect, 0.0) for m in maps], axis=0).max(axis=1)
-    located = [channels[i] for i in np.argsort(-strength) if significant[i].any()]  # strongest first
-    bands = [BANDS_HZ[j] for j in np.flatnonzero(significant.any(axis=0))]
-    band_hz = (min(b[0] for b in bands), max(b[1] for b in bands))
     level_dependent = _level_dependent(train_recs + hold_recs, lin0, sensor_names)
 
-    # 3 name: candidates and first-order screening --------------------------------------------
-    wanted = set(candidates) if candidates is not None else None
-
-    def want(name):
-        return (wanted is None or name in wanted) and name in CATALOGUE
-
-    hyps: list[Hypothesis] = []
-    if want("added_mass"):
-        seen = []
-        for loc in locations:
-            marker, pos = markers[loc]
-            if any(np.linalg.norm(pos - q) < 1e-6 for q in seen):
-                continue  # several sensors (X, Y, Z) at one point: one candidate
-            seen.append(pos)
-            comp = _sensor_component(loc) if loc in model.sensors else "frame"
-            near = [s for s in sensor_names if np.linalg.norm(model.sensors[s].sensor.position_m - pos) < 0.3]
-            here = [s for s in sensor_names if np.linalg.norm(markers[s][1] - pos) < 1e-6]
-            hyps.append(AddedMassHypothesis(loc, lin0, marker_displacement_map(model, marker), component=comp,
-                                            sensors=tuple(here if loc in model.sensors else near),
-                                            interface=None if loc in model.sensors else loc.split(".", 1)[1]))
-    if want("modal_damping"):
-        for body, handle in model.bodies.items():
-            if body == "rear_foundation":
-                continue
-            idx = np.asarray(model.mbs.systemData.GetNodeLTGODE2(handle.modal_node), dtype=int)
-            freq = np.asarray(handle.body.frequencies_hz, dtype=float)
-            n_rigid = idx.size - freq.size  # linear CMS bodies carry 6 rigid-body coordinates first
-            idx = idx[n_rigid:][freq <= MODAL_DAMPING_MAX_HZ]
-            hyps.append(ModalDampingHypothesis(body, lin0, idx, component=body, sensors=tuple(located)))
-    if want("sensor_gain"):
-        for ch in located:
-            hyps.append(SensorGainHypothesis(ch, lin0, component=_sensor_component(ch), sensors=(ch,)))
-    if want("drive_linkage_compliance"):
-        from ..physics import entry
-
-        say("linearising the drive-linkage hypothesis")
-        hyps.append(AffineHypothesis(
-            "drive_linkage_compliance", None, entry("drive_linkage_compliance"), build,
-            {"stiffness_n_per_m": 2e7, "damping_n_s_per_m": 2e3, "mass_kg": 20.0},
-            {"stiffness_n_per_m": 1e6, "damping_n_s_per_m": 100.0, "mass_kg": 1.0},
-            component="rig drive linkage", sensors=tuple(located), interface="piston_linkage"))
-    say(f"screening {len(hyps)} candidates")
-    r0 = ev_train.residual_vector(lin0)
-    r0_screen = ev_screen.residual_vector(lin0)
-    scores = []
-    for h in hyps:
-        scores.append(_screen(h, ev_screen, channels, r0_screen))
-    order = np.argsort(scores)[::-1]
-    # 4 fit the best candidates --------------------------------------------------------------
-    n_eff = _effective_samples(ev_train)
-    rss0 = float(r0 @ r0)
-    aic0 = _aic(rss0, 0, n_eff)
-    fitted = []
-    for i in order[: st.n_fit]:
-        h = hyps[i]
-        say(f"fitting {h.label} (screening score {scores[i]:.3f})")
-        p, std, rss, at_bound, nfev = _fit(h, ev_train, channels)
-        rel_std = np.abs(std) / np.maximum(np.abs(p), 1e-300)
-        fitted.append({"h": h, "p": p, "std": std, "rss": rss, "aic": _aic(rss, p.size, n_eff),
-                       "identifiable": bool(np.all(rel_std < st.max_relative_std) and not at_bound),
-                       "improvement": 1.0 - math.sqrt(rss / rss0), "score": float(scores[i]), "nfev": nfev})
-    meta["candidates"] = [{"physics": f["h"].physics, "location": f["h"].location,
-                           "signature_score": round(f["score"], 4), "aic": round(f["aic"] - aic0, 1),
-                           "improvement": round(f["improvement"], 4), "identifiable": f["identifiable"],
-                           "rejected": None if f["identifiable"] and f["improvement"] >= st.min_improvement else (
-                               "not identifiable" if not f["identifiable"] else "explains too little"),
-                           "parameters": dict(zip(f["h"].names, np.round(f["p"], 6).tolist(), strict=True))}
-                          for f in fitted]
-    ok = [f for f in fitted if f["identifiable"] and f["improvement"] >= st.min_improvement]
     findings, unexplained = [], []
-    if ok:
+    lin_r, gains_r, model_r, located = lin0, ones, model, []
+    for round_no in range(st.max_findings):
+        strength = np.max([np.where(m.significant, m.effect, 0.0) for m in maps], axis=0).max(axis=1)
+        located = [channels[i] for i in np.argsort(-strength) if significant[i].any()]  # strongest first
+        bands = [BANDS_HZ[j] for j in np.flatnonzero(significant.any(axis=0))]
+        band_hz = (min(b[0] for b in bands), max(b[1] for b in bands))
+        done = {(name, loc) for name, loc, _ in accepted} | {
+            ("sensor_gain", f.location["sensors"][0]) for f in findings if f.physics == "sensor_gain"
+        }
+
+        # 3 name: candidates and screening --------------------------------------------------
+        hyps: list[Hypothesis] = []
+        if want("added_mass"):
+            seen = []
+            for loc in locations:
+                marker, pos = markers[loc]
+                if any(np.linalg.norm(pos - q) < 1e-6 for q in seen):
+                    continue  # several sensors (X, Y, Z) at one point: one candidate
+                seen.append(pos)
+                comp = _sensor_component(loc) if loc in model_r.sensors else "frame"
+                near = [
+                    s_
+                    for s_ in sensor_names
+                    if np.linalg.norm(model_r.sensors[s_].sensor.position_m - pos) < 0.3
+                ]
+                here = [s_ for s_ in sensor_names if np.linalg.norm(markers[s_][1] - pos) < 1e-6]
+                hyps.append(
+                    AddedMassHypothesis(
+                        loc,
+                        lin_r,
+                        marker_displacement_map(model_r, marker),
+                        component=comp,
+                        sensors=tuple(here if loc in model_r.sensors else near),
+                        interface=None if loc in model_r.sensors else loc.split(".", 1)[1],
+                    )
+                )
+        if want("modal_damping"):
+            for body, handle in model_r.bodies.items():
+                if body == "rear_foundation" or ("modal_damping", body) in done:
+                    continue
+                idx = np.asarray(model_r.mbs.systemData.GetNodeLTGODE2(handle.modal_node), dtype=int)
+                freq = np.asarray(handle.body.frequencies_hz, dtype=float)
+                n_rigid = idx.size - freq.size  # linear CMS bodies carry 6 rigid-body coordinates first
+                idx = idx[n_rigid:][freq <= MODAL_DAMPING_MAX_HZ]
+                hyps.append(ModalDampingHypothesis(body, lin_r, idx, component=body, sensors=tuple(located)))
+        if want("sensor_gain"):
+            for ch in located:
+                if ("sensor_gain", ch) not in done:
+                    hyps.append(
+                        SensorGainHypothesis(ch, lin_r, component=_sensor_component(ch), sensors=(ch,))
+                    )
+        if want("drive_linkage_compliance") and ("drive_linkage_compliance", "drive_linkage") not in done:
+            say("linearising the drive-linkage hypothesis")
+            hyps.append(
+                AffineHypothesis(
+                    "drive_linkage_compliance",
+                    None,
+                    entry("drive_linkage_compliance"),
+                    build_current,
+                    {"stiffness_n_per_m": 2e7, "damping_n_s_per_m": 2e3, "mass_kg": 20.0},
+                    {"stiffness_n_per_m": 1e6, "damping_n_s_per_m": 100.0, "mass_kg": 1.0},
+                    component="rig drive linkage",
+                    sensors=tuple(located),
+                    interface="piston_linkage",
+                )
+            )
+        for h in hyps:
+            h.base_gains = gains_r
+        say(f"round {round_no + 1}: screening {len(hyps)} candidates")
+        r0 = ev_train.residual_vector(lin_r, gains_r)
+        r0_screen = ev_screen.residual_vector(lin_r, gains_r)
+        scores = [_screen(h, ev_screen, channels, r0_screen) for h in hyps]
+        order = np.argsort(scores)[::-1]
+        # 4 fit the best candidates ----------------------------------------------------------
+        n_eff = _effective_samples(ev_train)
+        rss0 = float(r0 @ r0)
+        aic0 = _aic(rss0, 0, n_eff)
+        fitted = []
+        for i in order[: st.n_fit]:
+            h = hyps[i]
+            say(f"fitting {h.label} (screening score {scores[i]:.3f})")
+            p, std, rss, at_bound, nfev = _fit(h, ev_train, channels)
+            rel_std = np.abs(std) / np.maximum(np.abs(p), 1e-300)
+            fitted.append(
+                {
+                    "h": h,
+                    "p": p,
+                    "std": std,
+                    "rss": rss,
+                    "aic": _aic(rss, p.size, n_eff),
+                    "identifiable": bool(np.all(rel_std < st.max_relative_std) and not at_bound),
+                    "improvement": 1.0 - math.sqrt(rss / rss0),
+                    "score": float(scores[i]),
+                    "nfev": nfev,
+                }
+            )
+        meta["candidates"] += [
+            {
+                "round": round_no + 1,
+                "physics": f["h"].physics,
+                "location": f["h"].location,
+                "signature_score": round(f["score"], 4),
+                "aic": round(f["aic"] - aic0, 1),
+                "improvement": round(f["improvement"], 4),
+                "identifiable": f["identifiable"],
+                "rejected": None
+                if f["identifiable"] and f["improvement"] >= st.min_improvement
+                else ("not identifiable" if not f["identifiable"] else "explains too little"),
+                "parameters": dict(zip(f["h"].names, np.round(f["p"], 6).tolist(), strict=True)),
+            }
+            for f in fitted
+        ]
+        ok = [f for f in fitted if f["identifiable"] and f["improvement"] >= st.min_improvement]
+        if not ok:
+            unexplained.append(
+                _unexplained(
+                    significant,
+                    channels,
+                    level_dependent,
+                    "no catalogue entry explains it: "
+                    + "; ".join(
+                        f"{f['h'].label} improves {100 * f['improvement']:.0f} %"
+                        f"{'' if f['identifiable'] else ' (not identifiable)'}"
+                        for f in fitted
+                    ),
+                )
+            )
+            break
         best = min(ok, key=lambda f: f["aic"])
         h, p = best["h"], best["p"]
-        lin1, gains1 = h.system(p), h.gains(p, channels)
-        sims_tr1, sims_ho1 = ev_train.simulate_exact(lin1, gains1), ev_hold.simulate_exact(lin1, gains1)
-        err_tr1 = [summary_error(e) for e in ev_train.errors(sims_tr1)]
+        lin1, gains1 = h.system(p), _gains(h, p, channels)
+        sims_tr1, sims_ho1, maps1, significant1 = compare(lin1, gains1)
+        err_tr_b = [summary_error(e) for e in ev_train.errors(sims_tr)]
         per_ho0, per_ho1 = ev_hold.errors(sims_ho), ev_hold.errors(sims_ho1)
-        err_ho1 = [summary_error(e) for e in per_ho1]
-        damage = _damage(hold_recs, sims_ho, sims_ho1)
-        fit = {"train_before": float(np.mean(err_tr0)), "train_after": float(np.mean(err_tr1)),
-               "holdout_before": float(np.mean(err_ho0)), "holdout_after": float(np.mean(err_ho1)),
-               "metric": METRIC,
-               "per_channel": {str(name).rsplit("/", 1)[-1]: {c: {"before": float(e0[k]), "after": float(e1[k])}
-                                                               for k, c in enumerate(channels)}
-                               for (name, _), e0, e1 in zip(ho, per_ho0, per_ho1, strict=True)},
-               "relative_pseudo_damage": damage}
-        params = {n: {"value": float(v), "unit": u, "std": float(s)}
-                  for n, v, u, s in zip(h.names, p, h.units, best["std"], strict=True)}
-        if figures is not None:
-            figures["after_T"] = {lab: _model_t(lin1, figures["freq_hz"], rec.channels, sensor_names, gains1)
-                                  for lab, rec in zip(figures["labels"], train_recs + hold_recs, strict=True)}
-            figures["located_sensors"] = list(located)
-            figures["physics"] = h.physics
-            figures["pseudo_damage"] = {c: {"measured": 1.0, **v} for c, v in damage.items()}
-        findings.append(Finding(
-            physics=h.physics, location={"sensors": list(h.sensors), "component": h.component,
-                                         "interface": h.interface},
-            band_hz=band_hz, level_dependent=level_dependent,
-            explanation=_explain(h, p, best["std"], lin0, lin1, located),
-            parameters=params, fit=fit))
-        # anything left?
-        rest = [significance_map(r, s, min_effect=st.min_effect, p_value=st.p_value / (len(tr) + len(ho)))
-                for r, s in zip(train_recs + hold_recs, sims_tr1 + sims_ho1, strict=True)]
-        left = np.zeros_like(significant)
-        for m in rest:
-            left |= m.significant
-        if left.any():
-            unexplained.append(_unexplained(left, channels, level_dependent,
-                                            "mismatch left after the finding above"))
+        fit = {
+            "train_before": float(np.mean(err_tr_b)),
+            "train_after": float(np.mean([summary_error(e) for e in ev_train.errors(sims_tr1)])),
+            "holdout_before": float(np.mean([summary_error(e) for e in per_ho0])),
+            "holdout_after": float(np.mean([summary_error(e) for e in per_ho1])),
+            "metric": METRIC,
+            "per_channel": {
+                str(name).rsplit("/", 1)[-1]: {
+                    c: {"before": float(e0[k]), "after": float(e1[k])} for k, c in enumerate(channels)
+                }
+                for (name, _), e0, e1 in zip(ho, per_ho0, per_ho1, strict=True)
+            },
+            "relative_pseudo_damage": _damage(hold_recs, sims_ho, sims_ho1),
+        }
+        params = {
+            n: {"value": float(v), "unit": u, "std": float(s_)}
+            for n, v, u, s_ in zip(h.names, p, h.units, best["std"], strict=True)
+        }
+        findings.append(
+            Finding(
+                physics=h.physics,
+                location={"sensors": list(h.sensors), "component": h.component, "interface": h.interface},
+                band_hz=band_hz,
+                level_dependent=level_dependent,
+                explanation=_explain(h, p, best["std"], lin_r, lin1, located),
+                parameters=params,
+                fit=fit,
+            )
+        )
+        say(
+            f"finding {len(findings)}: {h.label}, held-out error {fit['holdout_before']:.4f} -> "
+            f"{fit['holdout_after']:.4f}"
+        )
+        # carry the finding into the model of the next round
+        if h.physics == "sensor_gain":
+            gains_r = gains1
+            lin_r = lin1
+        else:
+            values = dict(zip(h.names, (float(v) for v in p), strict=True))
+            if h.physics == "modal_damping":
+                values["max_frequency_hz"] = MODAL_DAMPING_MAX_HZ
+            accepted.append(
+                (
+                    h.physics,
+                    h.location if h.physics != "drive_linkage_compliance" else "drive_linkage",
+                    values,
+                )
+            )
+            model_r = build_current()
+            locations, markers, lin_r = assembled(model_r)
+        sims_tr, sims_ho, maps, significant = sims_tr1, sims_ho1, maps1, significant1
+        if not significant.any():
+            break
     else:
-        unexplained.append(_unexplained(significant, channels, level_dependent,
-                                        "no catalogue entry explains it: " + "; ".join(
-                                            f"{f['h'].label} improves {100 * f['improvement']:.0f} %"
-                                            f"{'' if f['identifiable'] else ' (not identifiable)'}"
-                                            for f in fitted)))
+        if significant.any():
+            unexplained.append(
+                _unexplained(
+                    significant,
+                    channels,
+                    level_dependent,
+                    f"mismatch left after {len(findings)} findings (the most this diagnosis models)",
+                )
+            )
+    if findings:
+        meta["final_holdout_error"] = [summary_error(e) for e in ev_hold.errors(sims_ho)]
+        meta["relative_pseudo_damage"] = _damage(hold_recs, sims_ho_nominal, sims_ho)
+        if figures is not None:
+            figures["after_T"] = {
+                lab: _model_t(lin_r, figures["freq_hz"], rec.channels, sensor_names, gains_r)
+                for lab, rec in zip(figures["labels"], train_recs + hold_recs, strict=True)
+            }
+            figures["located_sensors"] = [s_ for f in findings for s_ in f.location["sensors"]][:3] or located
+            figures["physics"] = " + ".join(f.physics for f in findings)
+            figures["pseudo_damage"] = {
+                c: {"measured": 1.0, **v} for c, v in meta["relative_pseudo_damage"].items()
+            }
     meta["wall_s"] = time.perf_counter() - t_start
     return Diagnosis(True, findings, unexplained, meta)
+
+
+def _gains(h: Hypothesis, p, channels):
+    """The candidate's output gains times those already found (None: all one)."""
+    base = getattr(h, "base_gains", None)
+    g = h.gains(p, channels)
+    if g is None:
+        return base
+    return g if base is None else g * base
 
 
 #: body modes whose damping the modal-damping candidate scales (free-free frequency, Hz): the
@@ -469,8 +662,11 @@ def _diagnose_rig(variant: int, train: Sequence, holdout: Sequence, damping="ada
 MODAL_DAMPING_MAX_HZ = 200.0
 
 #: screening grids of one-parameter candidates (values tried; the best counts)
-SCREEN_GRID = {"added_mass": (2.0, 6.0, 15.0, 40.0, 100.0), "modal_damping": (0.3, 0.6, 1.6, 3.0),
-               "sensor_gain": (0.7, 0.85, 1.15, 1.4)}
+SCREEN_GRID = {
+    "added_mass": (2.0, 6.0, 15.0, 40.0, 100.0),
+    "modal_damping": (0.3, 0.6, 1.6, 3.0),
+    "sensor_gain": (0.7, 0.85, 1.15, 1.4),
+}
 
 
 def _model_t(lin, freq, channels, sensor_names, gains=None):
@@ -489,7 +685,7 @@ def _figures_before(figures, named, recs, sims, lin0, sensor_names, maps):
 
     k0 = 1000
     labels = [str(n).rsplit("/", 1)[-1] for n, _ in named]
-    rmaps, measured, nominal, levels = [], {}, {}, []
+    rmaps, measured, levels = [], {}, []
     freq = None
     for lab, r, s in zip(labels, recs, sims, strict=True):
         u = r.drive.samples[k0:]
@@ -505,10 +701,18 @@ def _figures_before(figures, named, recs, sims, lin0, sensor_names, maps):
         measured[lab] = (suy[:, band] / suu[None, band]) / (-w2[None, :])
         freq = f[band]
         levels.append(float(np.std(np.gradient(np.gradient(u, 1e-3), 1e-3))))
-    figures.update(channels=list(recs[0].channels), freq_hz=freq, labels=labels, levels=levels,
-                   residual_map=np.array(rmaps), bands_hz=[list(b) for b in BANDS_HZ], measured=measured)
-    figures["nominal_T"] = {lab: _model_t(lin0, freq, r.channels, sensor_names) for lab, r in zip(labels, recs,
-                                                                                                  strict=True)}
+    figures.update(
+        channels=list(recs[0].channels),
+        freq_hz=freq,
+        labels=labels,
+        levels=levels,
+        residual_map=np.array(rmaps),
+        bands_hz=[list(b) for b in BANDS_HZ],
+        measured=measured,
+    )
+    figures["nominal_T"] = {
+        lab: _model_t(lin0, freq, r.channels, sensor_names) for lab, r in zip(labels, recs, strict=True)
+    }
 
 
 def _screen(h: Hypothesis, ev: _Evaluator, channels, r0: np.ndarray) -> float:
@@ -525,7 +729,7 @@ def _screen(h: Hypothesis, ev: _Evaluator, channels, r0: np.ndarray) -> float:
     xs = np.log(np.asarray(grid))
     vals = []
     for v in grid:
-        r = ev.residual_vector(h.system([v]), h.gains([v], channels))
+        r = ev.residual_vector(h.system([v]), _gains(h, [v], channels))
         vals.append(float(r @ r))
     k = int(np.argmin(vals))
     best = vals[k]
@@ -540,7 +744,7 @@ def _screen(h: Hypothesis, ev: _Evaluator, channels, r0: np.ndarray) -> float:
                 xv = -B / (2 * A)
                 if x0 < xv < x2:
                     v = float(np.exp(xv))
-                    r = ev.residual_vector(h.system([v]), h.gains([v], channels))
+                    r = ev.residual_vector(h.system([v]), _gains(h, [v], channels))
                     best = min(best, float(r @ r))
                     h.start = np.array([v])
                     return max(0.0, 1.0 - best / rss0)
@@ -596,7 +800,10 @@ def _damage(recs, before, after):
             out.setdefault(c, {"before": [], "after": []})
             out[c]["before"].append(float(np.sum(pseudo_damage(b[i, k0:]))) / d_meas)
             out[c]["after"].append(float(np.sum(pseudo_damage(a[i, k0:]))) / d_meas)
-    return {c: {"before": float(np.mean(v["before"])), "after": float(np.mean(v["after"]))} for c, v in out.items()}
+    return {
+        c: {"before": float(np.mean(v["before"])), "after": float(np.mean(v["after"]))}
+        for c, v in out.items()
+    }
 
 
 def _unexplained(cells, channels, level_dependent, text):
@@ -604,11 +811,18 @@ def _unexplained(cells, channels, level_dependent, text):
     cols = np.flatnonzero(cells.any(axis=0))
     sensors = [channels[i] for i in rows]
     comps = sorted({_sensor_component(s) or "?" for s in sensors})
-    return {"location": {"sensors": sensors, "component": comps[0] if len(comps) == 1 else None, "interface": None},
-            "band_hz": [BANDS_HZ[cols[0]][0], BANDS_HZ[cols[-1]][1]], "level_dependent": bool(level_dependent),
-            "explanation": f"significant residual at {len(sensors)} sensor(s) ({', '.join(sensors[:8])}"
-                           f"{', ...' if len(sensors) > 8 else ''}) in {BANDS_HZ[cols[0]][0]:g}-"
-                           f"{BANDS_HZ[cols[-1]][1]:g} Hz; {text}"}
+    return {
+        "location": {
+            "sensors": sensors,
+            "component": comps[0] if len(comps) == 1 else None,
+            "interface": None,
+        },
+        "band_hz": [BANDS_HZ[cols[0]][0], BANDS_HZ[cols[-1]][1]],
+        "level_dependent": bool(level_dependent),
+        "explanation": f"significant residual at {len(sensors)} sensor(s) ({', '.join(sensors[:8])}"
+        f"{', ...' if len(sensors) > 8 else ''}) in {BANDS_HZ[cols[0]][0]:g}-"
+        f"{BANDS_HZ[cols[-1]][1]:g} Hz; {text}",
+    }
 
 
 def _shifted_modes(lin0, lin1, f_max=60.0):
@@ -630,25 +844,33 @@ def _explain(h: Hypothesis, p, std, lin0, lin1, located) -> str:
     where = ", ".join(located[:6]) + (", ..." if len(located) > 6 else "")
     if h.physics == "added_mass":
         m, s = v["mass_kg"]
-        return (f"A mass the model does not carry is attached near {h.location} ({h.component}): "
-                f"{m:.1f} +- {s:.1f} kg rigidly fixed there lowers the modes that move that point "
-                f"({shifts or 'small shifts'}); sensors {where} see it.")
+        return (
+            f"A mass the model does not carry is attached near {h.location} ({h.component}): "
+            f"{m:.1f} +- {s:.1f} kg rigidly fixed there lowers the modes that move that point "
+            f"({shifts or 'small shifts'}); sensors {where} see it."
+        )
     if h.physics == "drive_linkage_compliance":
         k, _ = v["stiffness_n_per_m"]
         m, _ = v["mass_kg"]
         c, _ = v["damping_n_s_per_m"]
         extra = f"; a new resonance at {', '.join(f'{b:.1f} Hz' for b in new)}" if new else ""
-        return (f"The drive linkage is not rigid: {k:.3g} N/m with {c:.3g} N s/m and {m:.1f} kg at the pin put a "
-                f"linkage resonance into the system that every frame sensor sees{extra} ({shifts}).")
+        return (
+            f"The drive linkage is not rigid: {k:.3g} N/m with {c:.3g} N s/m and {m:.1f} kg at the pin put a "
+            f"linkage resonance into the system that every frame sensor sees{extra} ({shifts})."
+        )
     if h.physics == "modal_damping":
         f, s = v["factor"]
-        return (f"The modal damping of {h.location} is {f:.2f} +- {s:.2f} times what the model assumes: "
-                f"resonance peaks at {where} are {'lower' if f > 1 else 'higher'} than simulated; "
-                f"frequencies agree.")
+        return (
+            f"The modal damping of {h.location} is {f:.2f} +- {s:.2f} times what the model assumes: "
+            f"resonance peaks at {where} are {'lower' if f > 1 else 'higher'} than simulated; "
+            f"frequencies agree."
+        )
     if h.physics == "sensor_gain":
         g, s = v["gain"]
-        return (f"Sensor {h.location} reads {100 * (g - 1):+.1f} +- {100 * s:.1f} % against the model at all "
-                f"frequencies while its neighbours agree: its sensitivity (calibration) is wrong, not the "
-                f"structure.")
+        return (
+            f"Sensor {h.location} reads {100 * (g - 1):+.1f} +- {100 * s:.1f} % against the model at all "
+            f"frequencies while its neighbours agree: its sensitivity (calibration) is wrong, not the "
+            f"structure."
+        )
     values = ", ".join(f"{n} = {a:.3g} +- {s:.2g}" for n, (a, s) in v.items())
     return f"{h.physics} at {h.location}: {values} ({shifts})."

@@ -28,17 +28,36 @@ from scipy import signal as sps
 
 from ..errors import InputError
 
-__all__ = ["RigRecording", "prepare", "band_filter", "significance_map", "relative_errors", "BANDS_HZ",
-           "METRIC", "summary_error"]
+__all__ = [
+    "RigRecording",
+    "prepare",
+    "band_filter",
+    "significance_map",
+    "relative_errors",
+    "BANDS_HZ",
+    "METRIC",
+    "summary_error",
+]
 
 RATE_HZ = 1000.0
 SKIP_S = 1.0  # start-up (fade-in) not compared
 BAND_HZ = (3.0, 60.0)
 #: bands of the residual map (Hz)
-BANDS_HZ = ((3.0, 8.0), (8.0, 13.0), (13.0, 18.0), (18.0, 24.0), (24.0, 30.0), (30.0, 37.0), (37.0, 45.0),
-            (45.0, 52.0), (52.0, 60.0))
-METRIC = ("relative band-limited (3-60 Hz) rms error of the simulated accelerations, per channel "
-          "rms(a_sim - a_meas) / rms(a_meas); summary: quadratic mean over channels")
+BANDS_HZ = (
+    (3.0, 8.0),
+    (8.0, 13.0),
+    (13.0, 18.0),
+    (18.0, 24.0),
+    (24.0, 30.0),
+    (30.0, 37.0),
+    (37.0, 45.0),
+    (45.0, 52.0),
+    (52.0, 60.0),
+)
+METRIC = (
+    "relative band-limited (3-60 Hz) rms error of the simulated accelerations, per channel "
+    "rms(a_sim - a_meas) / rms(a_meas); summary: quadratic mean over channels"
+)
 
 
 @dataclass
@@ -79,12 +98,16 @@ def prepare(recording, sensor_names, name: str = "", max_duration_s: float | Non
     who = f"recording {name!r}" if name else "recording"
     drives = [ch for ch in recording if ch.role == "drive"]
     if not drives:
-        raise InputError(f"{who} has no drive channel (role 'drive'); the diagnosis replays the recorded drive")
+        raise InputError(
+            f"{who} has no drive channel (role 'drive'); the diagnosis replays the recorded drive"
+        )
     acc = [ch for ch in recording if ch.role == "response" and ch.quantity == "acceleration"]
     unknown = [ch.name for ch in acc if ch.name not in sensor_names]
     if unknown:
-        raise InputError(f"{who}: channels {unknown} are not sensors of the model; the model has "
-                         f"{list(sensor_names)[:6]}...: use the model the recordings were taken on")
+        raise InputError(
+            f"{who}: channels {unknown} are not sensors of the model; the model has "
+            f"{list(sensor_names)[:6]}...: use the model the recordings were taken on"
+        )
     if not acc:
         raise InputError(f"{who} has no acceleration channels")
     for ch in acc:
@@ -106,8 +129,15 @@ def prepare(recording, sensor_names, name: str = "", max_duration_s: float | Non
     drive.set_signal(u[:n], RATE_HZ)
     filt = band_filter(meas)
     rms = np.sqrt(np.mean(filt**2, axis=1))
-    return RigRecording(name, drive, meas, tuple(ch.name for ch in acc), float(np.std(u[:n])), filt,
-                        1.0 / np.maximum(rms, 1e-12))
+    return RigRecording(
+        name,
+        drive,
+        meas,
+        tuple(ch.name for ch in acc),
+        float(np.std(u[:n])),
+        filt,
+        1.0 / np.maximum(rms, 1e-12),
+    )
 
 
 def relative_errors(rec: RigRecording, simulated: np.ndarray) -> np.ndarray:
@@ -134,8 +164,13 @@ class SignificanceMap:
     z_threshold: float
 
 
-def significance_map(rec: RigRecording, simulated: np.ndarray, nperseg: int = 4096, min_effect: float = 0.005,
-                     p_value: float = 1e-3) -> SignificanceMap:
+def significance_map(
+    rec: RigRecording,
+    simulated: np.ndarray,
+    nperseg: int = 4096,
+    min_effect: float = 0.005,
+    p_value: float = 1e-3,
+) -> SignificanceMap:
     """Where the residual is significantly coherent with the drive (see the module docstring)."""
     k0 = int(SKIP_S * RATE_HZ)
     u = rec.drive.samples[k0:]
@@ -147,7 +182,9 @@ def significance_map(rec: RigRecording, simulated: np.ndarray, nperseg: int = 40
     _, syy = sps.welch(y, RATE_HZ, nperseg=nperseg, noverlap=0)
     g2 = np.abs(sue) ** 2 / (suu[None, :] * see + 1e-300)
     n_d = max(2, u.size // nperseg)
-    coherent = np.maximum(g2 - 1.0 / n_d, 0.0) * see  # residual power coherent with the drive, null bias removed
+    coherent = (
+        np.maximum(g2 - 1.0 / n_d, 0.0) * see
+    )  # residual power coherent with the drive, null bias removed
     n_cells = len(rec.channels) * len(BANDS_HZ)
     # one-sided z threshold for a family-wise p_value over all cells (Bonferroni)
     from scipy.stats import norm

@@ -25,8 +25,14 @@ import numpy as np
 
 from ..modal import LinearSystem
 
-__all__ = ["Hypothesis", "AffineHypothesis", "AddedMassHypothesis", "ModalDampingHypothesis",
-           "SensorGainHypothesis", "project"]
+__all__ = [
+    "Hypothesis",
+    "AffineHypothesis",
+    "AddedMassHypothesis",
+    "ModalDampingHypothesis",
+    "SensorGainHypothesis",
+    "project",
+]
 
 
 def project(full_m, full_c, full_k, base: LinearSystem) -> LinearSystem:
@@ -35,10 +41,22 @@ def project(full_m, full_c, full_k, base: LinearSystem) -> LinearSystem:
     r = base.drive_shape
     mz, cz, kz = (n @ a @ n.T for a in (full_m, full_c, full_k))
     mz, cz, kz = (0.5 * (a + a.T) for a in (mz, cz, kz))
-    return LinearSystem(mass=mz, damping=cz, stiffness=kz, nullspace=n, drive_shape=r, b0=n @ full_k @ r,
-                        b1=n @ full_c @ r, b2=n @ full_m @ r, sensor_map=base.sensor_map,
-                        sensor_names=base.sensor_names, metadata=base.metadata, full_mass=full_m,
-                        full_damping=full_c, full_stiffness=full_k)
+    return LinearSystem(
+        mass=mz,
+        damping=cz,
+        stiffness=kz,
+        nullspace=n,
+        drive_shape=r,
+        b0=n @ full_k @ r,
+        b1=n @ full_c @ r,
+        b2=n @ full_m @ r,
+        sensor_map=base.sensor_map,
+        sensor_names=base.sensor_names,
+        metadata=base.metadata,
+        full_mass=full_m,
+        full_damping=full_c,
+        full_stiffness=full_k,
+    )
 
 
 @dataclass
@@ -73,9 +91,16 @@ class AffineHypothesis(Hypothesis):
 
     def __init__(self, physics, location, entry, build: Callable, start: dict, steps: dict, **where):
         params = [entry.parameter(n) for n in start]
-        super().__init__(physics, location, tuple(start), tuple(p.unit for p in params),
-                         np.array([p.lower for p in params]), np.array([p.upper for p in params]),
-                         np.array([float(v) for v in start.values()]), **where)
+        super().__init__(
+            physics,
+            location,
+            tuple(start),
+            tuple(p.unit for p in params),
+            np.array([p.lower for p in params]),
+            np.array([p.upper for p in params]),
+            np.array([float(v) for v in start.values()]),
+            **where,
+        )
         from ..modal import linearize
 
         def lin_at(values):
@@ -111,24 +136,53 @@ class AffineHypothesis(Hypothesis):
 class AddedMassHypothesis(Hypothesis):
     """A rigid point mass at a marker: ``M0 + m P^T P``."""
 
-    def __init__(self, location, nominal: LinearSystem, displacement_map: np.ndarray, bounds=(0.01, 500.0),
-                 start=1.0, **where):
-        super().__init__("added_mass", location, ("mass_kg",), ("kg",), np.array([bounds[0]]),
-                         np.array([bounds[1]]), np.array([start]), **where)
+    def __init__(
+        self,
+        location,
+        nominal: LinearSystem,
+        displacement_map: np.ndarray,
+        bounds=(0.01, 500.0),
+        start=1.0,
+        **where,
+    ):
+        super().__init__(
+            "added_mass",
+            location,
+            ("mass_kg",),
+            ("kg",),
+            np.array([bounds[0]]),
+            np.array([bounds[1]]),
+            np.array([start]),
+            **where,
+        )
         self.nominal = nominal
         self.ptp = displacement_map.T @ displacement_map
 
     def system(self, p):
-        return project(self.nominal.full_mass + float(p[0]) * self.ptp, self.nominal.full_damping,
-                       self.nominal.full_stiffness, self.nominal)
+        return project(
+            self.nominal.full_mass + float(p[0]) * self.ptp,
+            self.nominal.full_damping,
+            self.nominal.full_stiffness,
+            self.nominal,
+        )
 
 
 class ModalDampingHypothesis(Hypothesis):
     """The damping of one flexible body's modes scaled by ``factor``."""
 
-    def __init__(self, location, nominal: LinearSystem, body_indices: np.ndarray, bounds=(0.1, 10.0), **where):
-        super().__init__("modal_damping", location, ("factor",), ("1",), np.array([bounds[0]]),
-                         np.array([bounds[1]]), np.array([1.0]), **where)
+    def __init__(
+        self, location, nominal: LinearSystem, body_indices: np.ndarray, bounds=(0.1, 10.0), **where
+    ):
+        super().__init__(
+            "modal_damping",
+            location,
+            ("factor",),
+            ("1",),
+            np.array([bounds[0]]),
+            np.array([bounds[1]]),
+            np.array([1.0]),
+            **where,
+        )
         self.nominal = nominal
         c_body = np.zeros_like(nominal.full_damping)
         idx = np.asarray(body_indices, dtype=int)
@@ -136,16 +190,28 @@ class ModalDampingHypothesis(Hypothesis):
         self.c_body = c_body
 
     def system(self, p):
-        return project(self.nominal.full_mass, self.nominal.full_damping + (float(p[0]) - 1.0) * self.c_body,
-                       self.nominal.full_stiffness, self.nominal)
+        return project(
+            self.nominal.full_mass,
+            self.nominal.full_damping + (float(p[0]) - 1.0) * self.c_body,
+            self.nominal.full_stiffness,
+            self.nominal,
+        )
 
 
 class SensorGainHypothesis(Hypothesis):
     """One channel's true sensitivity differs from the stated one by ``gain``."""
 
     def __init__(self, channel, nominal: LinearSystem, bounds=(0.5, 2.0), **where):
-        super().__init__("sensor_gain", channel, ("gain",), ("1",), np.array([bounds[0]]), np.array([bounds[1]]),
-                         np.array([1.0]), **where)
+        super().__init__(
+            "sensor_gain",
+            channel,
+            ("gain",),
+            ("1",),
+            np.array([bounds[0]]),
+            np.array([bounds[1]]),
+            np.array([1.0]),
+            **where,
+        )
         self.nominal = nominal
 
     def system(self, p):
@@ -159,7 +225,8 @@ class SensorGainHypothesis(Hypothesis):
 
 def log_bounds(h: Hypothesis):
     """Bounds in the fitting variable: log for non-negative parameters (a zero lower bound
-    becomes ``upper * 1e-6``), linear otherwise."""
+    becomes ``upper * 1e-6``), linear otherwise.
+    """
     pos = (h.lower >= 0) & (h.upper > 0)
     lower = np.where(pos & (h.lower <= 0), h.upper * 1e-6, h.lower)
     lo = np.where(pos, np.log(np.maximum(lower, 1e-300)), h.lower)

@@ -125,12 +125,16 @@ class LocalNonlinearity:
         d = np.asarray(self.direction, dtype=float).ravel()
         n = float(np.linalg.norm(d)) if d.size == 3 else 0.0
         if not (d.size == 3 and math.isfinite(n) and n > 0):
-            raise InputError(f"local nonlinearity {self.name!r}: direction {self.direction!r}; expected a "
-                             "non-zero 3-vector")
+            raise InputError(
+                f"local nonlinearity {self.name!r}: direction {self.direction!r}; expected a "
+                "non-zero 3-vector"
+            )
         self.direction = d / n
         if not isinstance(self.law, ForceLaw):
-            raise InputError(f"local nonlinearity {self.name!r}: law {self.law!r} lacks initial_state() and "
-                             "residual(delta, delta_t, state)")
+            raise InputError(
+                f"local nonlinearity {self.name!r}: law {self.law!r} lacks initial_state() and "
+                "residual(delta, delta_t, state)"
+            )
 
 
 def marker_displacement_map(model, marker: int, step: float = 1e-6) -> np.ndarray:
@@ -154,8 +158,9 @@ def marker_displacement_map(model, marker: int, step: float = 1e-6) -> np.ndarra
                 q = q0.copy()
                 q[i] += sign * step
                 mbs.systemData.SetODE2Coordinates(q, configuration=cur)
-                cols.append(np.array(mbs.GetMarkerOutput(marker, exu.OutputVariableType.Position,
-                                                         configuration=cur)))
+                cols.append(
+                    np.array(mbs.GetMarkerOutput(marker, exu.OutputVariableType.Position, configuration=cur))
+                )
             out[:, i] = (cols[0] - cols[1]) / (2.0 * step)
     finally:
         mbs.systemData.SetODE2Coordinates(q0, configuration=cur)
@@ -187,17 +192,26 @@ def _discrete_maps(lin, gather: np.ndarray, h: float):
     d_r = lin.sensor_output @ b_r[n:]
     m2, n_e = a.shape[0], gather.shape[0]
     big = np.zeros((m2 + 4 + n_e, m2 + 4 + n_e))
-    big[:m2, :m2], big[:m2, m2:m2 + 4], big[:m2, m2 + 4:] = a, b, b_r
+    big[:m2, :m2], big[:m2, m2 : m2 + 4], big[:m2, m2 + 4 :] = a, b, b_r
     big[m2, m2 + 1] = big[m2 + 1, m2 + 2] = big[m2 + 2, m2 + 3] = 1.0
     e = sla.expm(big * h)
     lam, v = sla.eig(a)
     vinv = np.linalg.inv(v)
-    return dict(mu=np.exp(lam * h), g_psi=vinv @ e[:m2, m2:m2 + 4], g_r=vinv @ e[:m2, m2 + 4:], v=v, c=c, d=d,
-                d_r=d_r, lam=lam)
+    return dict(
+        mu=np.exp(lam * h),
+        g_psi=vinv @ e[:m2, m2 : m2 + 4],
+        g_r=vinv @ e[:m2, m2 + 4 :],
+        v=v,
+        c=c,
+        d=d,
+        d_r=d_r,
+        lam=lam,
+    )
 
 
-def simulate_local_nonlinear(lin, drive, gather: np.ndarray, laws, substeps: int = 8,
-                             return_deltas: bool = False):
+def simulate_local_nonlinear(
+    lin, drive, gather: np.ndarray, laws, substeps: int = 8, return_deltas: bool = False
+):
     """Sensor accelerations of the linearised model with local residual forces, shape (n_sensors, N).
 
     Parameters
@@ -275,6 +289,8 @@ def simulate_local_nonlinear(lin, drive, gather: np.ndarray, laws, substeps: int
             if not last:
                 xi = mu * xi + g_psi @ psi + g_r @ r
         if not np.all(np.isfinite(xi)):
-            raise SimulationError(f"local-nonlinear simulation diverged at t = {k * h_out:.4f} s; reduce the "
-                                  "element's parameters or raise substeps")
+            raise SimulationError(
+                f"local-nonlinear simulation diverged at t = {k * h_out:.4f} s; reduce the "
+                "element's parameters or raise substeps"
+            )
     return (out, deltas) if return_deltas else out

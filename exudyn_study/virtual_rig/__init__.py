@@ -5,7 +5,14 @@
 True
 """
 
-from .run import DEFAULT_DURATION_S, build_truth, recording_name, run_virtual_test, truth_name, virtual_recording
+from .run import (
+    DEFAULT_DURATION_S,
+    build_truth,
+    recording_name,
+    run_virtual_test,
+    truth_name,
+    virtual_recording,
+)
 from .scenarios import (
     BLIND_EFFECTS,
     SCENARIOS,
@@ -18,7 +25,18 @@ from .scenarios import (
 )
 
 __all__ = [
-    "DEFAULT_DURATION_S", "build_truth", "recording_name", "run_virtual_test", "truth_name", "virtual_recording",
-    "BLIND_EFFECTS", "SCENARIOS", "THESIS_TABLE1", "Augment", "Scenario", "random_scenario", "register_scenario",
+    "DEFAULT_DURATION_S",
+    "build_truth",
+    "recording_name",
+    "run_virtual_test",
+    "truth_name",
+    "virtual_recording",
+    "BLIND_EFFECTS",
+    "SCENARIOS",
+    "THESIS_TABLE1",
+    "Augment",
+    "Scenario",
+    "random_scenario",
+    "register_scenario",
     "scenario",
 ]

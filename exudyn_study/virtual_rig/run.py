@@ -28,13 +28,17 @@ import tempfile
 import time
 from pathlib import Path
 
-import numpy as np
-
 from ..errors import InputError
 from .scenarios import Scenario, scenario
 
-__all__ = ["build_truth", "virtual_recording", "run_virtual_test", "DEFAULT_DURATION_S", "recording_name",
-           "truth_name"]
+__all__ = [
+    "build_truth",
+    "virtual_recording",
+    "run_virtual_test",
+    "DEFAULT_DURATION_S",
+    "recording_name",
+    "truth_name",
+]
 
 log = logging.getLogger(__name__)
 
@@ -62,17 +66,32 @@ def build_truth(sc: Scenario, bodies=None, sensors=None, cache_dir=None):
     damping = parse_damping(sc.damping)
     bushing = BushingParameters() if sc.bushing else None
     if bodies is None:
-        model = build_model(sc.variant, damping=damping, bushing=bushing, sensors=sensors, cache_dir=cache_dir,
-                            exudyn_mesh="used")
+        model = build_model(
+            sc.variant,
+            damping=damping,
+            bushing=bushing,
+            sensors=sensors,
+            cache_dir=cache_dir,
+            exudyn_mesh="used",
+        )
     else:
-        model = build_model_from_bodies(bodies, sc.variant, damping=damping, bushing=bushing, sensors=sensors,
-                                        exudyn_mesh="used")
+        model = build_model_from_bodies(
+            bodies, sc.variant, damping=damping, bushing=bushing, sensors=sensors, exudyn_mesh="used"
+        )
     applied = [entry(a.physics).apply(model, a.location, **dict(a.parameters)) for a in sc.augmentations]
     return model, applied
 
 
-def virtual_recording(sc: Scenario | str, signal: str = "white-noise", duration_s: float | None = None,
-                      level: float = 1.0, bodies=None, sensors=None, cache_dir=None, model=None):
+def virtual_recording(
+    sc: Scenario | str,
+    signal: str = "white-noise",
+    duration_s: float | None = None,
+    level: float = 1.0,
+    bodies=None,
+    sensors=None,
+    cache_dir=None,
+    model=None,
+):
     """Simulate and measure one recording of scenario ``sc``.
 
     Parameters
@@ -113,10 +132,16 @@ def virtual_recording(sc: Scenario | str, signal: str = "white-noise", duration_
     measured = measure(ideal, sc.acquisition)
     from ..recording import Recording
 
-    meta = {"source": "virtual-rig", "scenario": sc.name, "signal": signal, "level": float(level),
-            "seed": int(sc.seed), "duration_s": float(ideal.metadata["duration_s"]),
-            "measurement_chain": measured.metadata.get("measurement_chain", ""),
-            "wall_s": float(time.perf_counter() - t0)}
+    meta = {
+        "source": "virtual-rig",
+        "scenario": sc.name,
+        "signal": signal,
+        "level": float(level),
+        "seed": int(sc.seed),
+        "duration_s": float(ideal.metadata["duration_s"]),
+        "measurement_chain": measured.metadata.get("measurement_chain", ""),
+        "wall_s": float(time.perf_counter() - t0),
+    }
     return Recording(tuple(measured), meta)
 
 
@@ -142,8 +167,16 @@ def _write_json_atomic(data: dict, path: Path) -> None:
             os.unlink(tmp)
 
 
-def run_virtual_test(sc: Scenario | str, signals=("white-noise",), out_dir=".", duration_s: float | None = None,
-                     levels=(1.0,), bodies=None, sensors=None, cache_dir=None) -> list[Path]:
+def run_virtual_test(
+    sc: Scenario | str,
+    signals=("white-noise",),
+    out_dir=".",
+    duration_s: float | None = None,
+    levels=(1.0,),
+    bodies=None,
+    sensors=None,
+    cache_dir=None,
+) -> list[Path]:
     """Write the recordings of ``sc`` for each signal and level, and its truth file, into ``out_dir``.
 
     Returns

@@ -32,8 +32,16 @@ import numpy as np
 from ..errors import InputError
 from ..measurement import AcquisitionParameters, ServoParameters
 
-__all__ = ["Augment", "Scenario", "SCENARIOS", "scenario", "register_scenario", "random_scenario",
-           "THESIS_TABLE1", "BLIND_EFFECTS"]
+__all__ = [
+    "Augment",
+    "Scenario",
+    "SCENARIOS",
+    "scenario",
+    "register_scenario",
+    "random_scenario",
+    "THESIS_TABLE1",
+    "BLIND_EFFECTS",
+]
 
 #: thesis Table 1: (undamped natural frequency Hz, damping ratio, description)
 THESIS_TABLE1 = (
@@ -59,8 +67,11 @@ class Augment:
     parameters: Mapping[str, float] = field(default_factory=dict)
 
     def as_dict(self) -> dict:
-        return {"physics": self.physics, "location": self.location,
-                "parameters": {k: float(v) for k, v in self.parameters.items()}}
+        return {
+            "physics": self.physics,
+            "location": self.location,
+            "parameters": {k: float(v) for k, v in self.parameters.items()},
+        }
 
 
 @dataclass(frozen=True)
@@ -103,8 +114,11 @@ class Scenario:
             raise InputError(f"scenario {self.name!r}: variant {self.variant!r}; expected 1, 2 or 3")
         if not (math.isfinite(self.rms_m) and 0 < self.rms_m <= 5e-3):
             raise InputError(f"scenario {self.name!r}: rms_m {self.rms_m!r}; expected (0, 5e-3] m")
-        object.__setattr__(self, "augmentations", tuple(
-            a if isinstance(a, Augment) else Augment(**a) for a in self.augmentations))
+        object.__setattr__(
+            self,
+            "augmentations",
+            tuple(a if isinstance(a, Augment) else Augment(**a) for a in self.augmentations),
+        )
 
     def validate(self) -> None:
         """Check every augmentation's entry, parameters and bounds (InputError naming the first bad one)."""
@@ -116,16 +130,25 @@ class Scenario:
     def with_seed(self, seed: int) -> Scenario:
         """The same truth with another seed (drive, servo and sensor noise)."""
         return dataclasses.replace(
-            self, seed=int(seed), servo=dataclasses.replace(self.servo, seed=int(seed)),
-            acquisition=dataclasses.replace(self.acquisition, seed=int(seed)))
+            self,
+            seed=int(seed),
+            servo=dataclasses.replace(self.servo, seed=int(seed)),
+            acquisition=dataclasses.replace(self.acquisition, seed=int(seed)),
+        )
 
     def truth(self) -> dict:
         """JSON-able description of the truth (the file the rest of the tool never reads)."""
         return {
-            "scenario": self.name, "description": self.description, "variant": self.variant,
-            "damping": self.damping, "bushing": self.bushing, "seed": self.seed, "rms_m": self.rms_m,
+            "scenario": self.name,
+            "description": self.description,
+            "variant": self.variant,
+            "damping": self.damping,
+            "bushing": self.bushing,
+            "seed": self.seed,
+            "rms_m": self.rms_m,
             "augmentations": [a.as_dict() for a in self.augmentations],
-            "servo": dataclasses.asdict(self.servo), "acquisition": dataclasses.asdict(self.acquisition),
+            "servo": dataclasses.asdict(self.servo),
+            "acquisition": dataclasses.asdict(self.acquisition),
         }
 
 
@@ -149,35 +172,76 @@ def scenario(name: str) -> Scenario:
         raise InputError(f"scenario {name!r} is unknown; expected one of {sorted(_SCENARIOS)}") from None
 
 
-register_scenario(Scenario(
-    name="none",
-    description="Nominal Model 1 with Adams default damping, measured through the rig's servo drive and "
-                "acquisition chain; no physics is missing from the nominal model.",
-    variant=1, damping="adams-default"))
+register_scenario(
+    Scenario(
+        name="none",
+        description="Nominal Model 1 with Adams default damping, measured through the rig's servo drive and "
+        "acquisition chain; no physics is missing from the nominal model.",
+        variant=1,
+        damping="adams-default",
+    )
+)
 
 #: single-effect scenarios: (entry, location, parameters, nominal variant, description)
 _SINGLE = (
-    ("added_mass", "ARFVZ", {"mass_kg": 15.0}, 1,
-     "15 kg rigidly attached at the left frame side member's drive point (sensor ARFVZ)."),
-    ("drive_linkage_compliance", None, {"stiffness_n_per_m": 2e7, "damping_n_s_per_m": 2e3, "mass_kg": 20.0}, 1,
-     "A compliant piston-linkage connection with 20 kg of linkage mass: the ~28 Hz rig resonance."),
-    ("joint_stiffness", "tank_left.tank_left_front", {"stiffness_n_per_m": 2e6}, 3,
-     "The left tank's front mount is a 2e6 N/m spring instead of a rigid joint (Model 3)."),
-    ("joint_friction", "bracket_right.bracket_right", {"stuck_stiffness_n_per_m": 2e7, "slip_force_n": 40.0}, 3,
-     "Micro-slip in the right mudguard bracket's bolted joint (Model 3)."),
-    ("sloshing", "tank_right", {"slosh_mass_kg": 60.0, "slosh_frequency_hz": 2.5, "slosh_damping_ratio": 0.02},
-     1, "60 kg of the right tank's water sloshes at 2.5 Hz."),
-    ("bushing_stiffening", "bracket_left", {"cubic_stiffness_n_per_m3": 5e11}, 3,
-     "The left mudguard bracket's rubber bushing stiffens with amplitude (Model 3)."),
-    ("modal_damping", "chassis", {"factor": 2.5}, 1,
-     "The chassis's modal damping is 2.5 times the Adams default."),
-    ("sensor_gain", "ARHBZ", {"gain": 1.25}, 1,
-     "Sensor ARHBZ reads 25 % high (a calibration error)."),
+    (
+        "added_mass",
+        "ARFVZ",
+        {"mass_kg": 15.0},
+        1,
+        "15 kg rigidly attached at the left frame side member's drive point (sensor ARFVZ).",
+    ),
+    (
+        "drive_linkage_compliance",
+        None,
+        {"stiffness_n_per_m": 2e7, "damping_n_s_per_m": 2e3, "mass_kg": 20.0},
+        1,
+        "A compliant piston-linkage connection with 20 kg of linkage mass: the ~28 Hz rig resonance.",
+    ),
+    (
+        "joint_stiffness",
+        "tank_left.tank_left_front",
+        {"stiffness_n_per_m": 2e6},
+        3,
+        "The left tank's front mount is a 2e6 N/m spring instead of a rigid joint (Model 3).",
+    ),
+    (
+        "joint_friction",
+        "bracket_right.bracket_right",
+        {"stuck_stiffness_n_per_m": 2e7, "slip_force_n": 40.0},
+        3,
+        "Micro-slip in the right mudguard bracket's bolted joint (Model 3).",
+    ),
+    (
+        "sloshing",
+        "tank_right",
+        {"slosh_mass_kg": 60.0, "slosh_frequency_hz": 2.5, "slosh_damping_ratio": 0.02},
+        1,
+        "60 kg of the right tank's water sloshes at 2.5 Hz.",
+    ),
+    (
+        "bushing_stiffening",
+        "bracket_left",
+        {"cubic_stiffness_n_per_m3": 5e11},
+        3,
+        "The left mudguard bracket's rubber bushing stiffens with amplitude (Model 3).",
+    ),
+    (
+        "modal_damping",
+        "chassis",
+        {"factor": 2.5},
+        1,
+        "The chassis's modal damping is 2.5 times the Adams default.",
+    ),
+    ("sensor_gain", "ARHBZ", {"gain": 1.25}, 1, "Sensor ARHBZ reads 25 % high (a calibration error)."),
 )
 
 for _name, _loc, _params, _variant, _text in _SINGLE:
-    register_scenario(Scenario(name=_name, description=_text, variant=_variant,
-                               augmentations=(Augment(_name, _loc, _params),)))
+    register_scenario(
+        Scenario(
+            name=_name, description=_text, variant=_variant, augmentations=(Augment(_name, _loc, _params),)
+        )
+    )
 
 from .thesis import THESIS_SCENARIO  # noqa: E402  (defined in its own module: tuned against Table 1)
 
@@ -211,8 +275,9 @@ def random_scenario(index: int, effect: str | None = None, rng_seed: int = 2026)
         effect = names[int(rng.integers(len(names)))]
     seed = int(rng.integers(1, 10_000))
     if effect == "none":
-        return Scenario(name=f"blind-{index:02d}", description="blind scenario", variant=1, seed=seed).with_seed(
-            seed)
+        return Scenario(
+            name=f"blind-{index:02d}", description="blind scenario", variant=1, seed=seed
+        ).with_seed(seed)
     if effect not in BLIND_EFFECTS:
         raise InputError(f"blind effect {effect!r} is unknown; expected 'none' or one of {names}")
     variant, locations = BLIND_EFFECTS[effect]
@@ -230,8 +295,13 @@ def random_scenario(index: int, effect: str | None = None, rng_seed: int = 2026)
         if (effect, p.name) in _BLIND_RATIO and rng.uniform() < 0.5:
             value = 1.0 / value  # a factor below one as often as above
         params[p.name] = p.check(value, effect)
-    return Scenario(name=f"blind-{index:02d}", description="blind scenario", variant=variant, seed=seed,
-                    augmentations=(Augment(effect, location, params),)).with_seed(seed)
+    return Scenario(
+        name=f"blind-{index:02d}",
+        description="blind scenario",
+        variant=variant,
+        seed=seed,
+        augmentations=(Augment(effect, location, params),),
+    ).with_seed(seed)
 
 
 #: sub-ranges of the entries' bounds from which blind effects are drawn log-uniformly (large
