@@ -150,7 +150,8 @@ class ModelPlant:
         from .modal import linearize
 
         if self.lin is None:
-            object.__setattr__(self, "lin", linearize(self.model))
+            with single_threaded_blas():
+                object.__setattr__(self, "lin", linearize(self.model))
         if not self.label:
             object.__setattr__(self, "label", str(self.model.metadata.get("damping", "")))
         elements = list(getattr(self.model, "local_nonlinearities", []))
@@ -200,13 +201,14 @@ class ModelPlant:
             x = prepare_drive(drive, sample_rate_hz=OUTPUT_RATE_HZ)
             self.model.drive.set_signal(x, OUTPUT_RATE_HZ)
             elements = list(getattr(self.model, "local_nonlinearities", []))
-            if elements:
-                from .physics.nonlinear import simulate_local_nonlinear
+            with single_threaded_blas():
+                if elements:
+                    from .physics.nonlinear import simulate_local_nonlinear
 
-                laws = [el.law for el in elements]
-                acc = simulate_local_nonlinear(self.lin, self.model.drive, self._gather, laws)
-            else:
-                acc = simulate_linear(self.lin, self.model.drive)
+                    laws = [el.law for el in elements]
+                    acc = simulate_local_nonlinear(self.lin, self.model.drive, self._gather, laws)
+                else:
+                    acc = simulate_linear(self.lin, self.model.drive)
             self._last.update(drive=drive.copy(), acc=acc)
         idx = list(range(len(self.sensor_names))) if names is None else self.indices(names, "sensor")
         out = np.array(acc[idx], dtype=float)
@@ -233,7 +235,8 @@ class ModelPlant:
         nperseg = int(round(OUTPUT_RATE_HZ / resolution_hz))
         nperseg += nperseg % 2
         f = np.linspace(0.0, OUTPUT_RATE_HZ / 2, nperseg // 2 + 1)
-        h = frf_linear(self.lin, f)[idx, 0, :]
+        with single_threaded_blas():
+            h = frf_linear(self.lin, f)[idx, 0, :]
         gains = getattr(self.model, "output_gains", {})
         h = h * np.array([float(gains.get(n, 1.0)) for n in names])[:, None]
         return DriveFRF(f, h, OUTPUT_RATE_HZ)

@@ -136,7 +136,7 @@ def test_model_against_its_own_recording_gives_100_percent(bodies):
 
     own = ModelPlant(mini_builder(bodies)(1, "step"))
     rec = {"white-noise": recording_of(own, "white-noise", seed=11)}
-    plain = run_grid(rec, models=(1,), dampings=("step",), builder=mini_builder(bodies), iterate=False)
+    plain = run_grid(rec, models=(1,), dampings=("step",), builder=lambda v, d: own.model, iterate=False)
     assert plain.cells[0].iteration_errors is None
     # the recorded drive is the controller's 204.8 Hz copy, resampled back to 1000 Hz
     np.testing.assert_allclose(plain.cells[0].damage.ratios, 1.0, atol=0.05)
@@ -157,13 +157,12 @@ def test_linkage_resonance_the_iteration_model_lacks(bodies, truth, measured):
     assert not fixed.converged and fixed.errors[-1].max() > fixed.errors[0].max()
 
 
-def test_plant_recording_is_simulate_linear(bodies):
+def test_plant_recording_is_simulate_linear(truth):
     """ModelPlant.recording (no re-linearisation) gives what simulate(method='linear') gives."""
-    from exudyn_study.damage_grid import ModelPlant
     from exudyn_study.signals import drive_signal
     from exudyn_study.simulate import simulate
 
-    plant = ModelPlant(mini_builder(bodies)(1, "step"))
+    plant = truth
     drive = drive_signal("test", 3.0, 1000.0, 0.25e-3, 3)
     mine = plant.recording(drive)
     ref = simulate(plant.model, drive, method="linear", drive_rate_hz=1000.0)
@@ -171,9 +170,12 @@ def test_plant_recording_is_simulate_linear(bodies):
     for a, b in zip(mine.channels, ref.channels, strict=True):
         assert (a.direction, a.position_m, a.sample_rate_hz, a.role, a.sensitivity) == (
             b.direction, b.position_m, b.sample_rate_hz, b.role, b.sensitivity)
-        np.testing.assert_allclose(a.data, b.data, rtol=1e-9, atol=1e-12 * np.abs(b.data).max())
-    assert {k: v for k, v in mine.metadata.items() if k != "wall_s"} == {
-        k: v for k, v in ref.metadata.items() if k != "wall_s"}
+        # same algebra; the eigen-decomposition's rounding differs with one or two BLAS threads
+        # (measured up to 4e-8 of the peak on this truth model)
+        np.testing.assert_allclose(a.data, b.data, rtol=0, atol=1e-6 * np.abs(b.data).max())
+    assert mine.metadata["damping"] == "truth"  # the plant's label
+    assert {k: v for k, v in mine.metadata.items() if k not in ("wall_s", "damping")} == {
+        k: v for k, v in ref.metadata.items() if k not in ("wall_s", "damping")}
 
 
 # ----------------------------------------------------------------------------- bad input
