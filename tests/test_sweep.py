@@ -302,3 +302,24 @@ def test_kill_the_sweep_midway_then_resume_runs_only_the_missing_points(tmp_path
     assert all(after[k] == row for k, row in before.items())  # finished points were not rerun
     assert len((out / "results.csv").read_text().splitlines()) == 11
     assert not list((out / "points").glob("*.tmp"))
+
+
+def test_damping_sensitivity_rig_path_rejects_table6_on_models_1_and_2():
+    from exudyn_study.errors import InputError
+    from exudyn_study.sweep.tasks import damping_sensitivity
+
+    with pytest.raises(InputError, match="Table 6 exists for model 3 only"):
+        damping_sensitivity(seed=1, model="rig-1", damping="calibrated")
+
+
+@pytest.mark.slow
+def test_damping_sensitivity_rig_path_is_one_when_the_model_is_the_truth():
+    """Model 1 with Adams default damping against the 'none' scenario (its truth is that model)."""
+    from exudyn_study.sweep.tasks import damping_sensitivity
+
+    same = damping_sensitivity(seed=1, model="rig-1", signal="test", damping="adams-default", duration_s=20.0,
+                               measured_scenario="none")
+    assert 0.9 < same["rpd_min"] and same["rpd_max"] < 1.1
+    more = damping_sensitivity(seed=1, model="rig-1", signal="test", damping="step", duration_s=20.0,
+                               measured_scenario="none")
+    assert more["rpd_mean"] < 0.5 * same["rpd_mean"]  # more damping, less damage

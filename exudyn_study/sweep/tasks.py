@@ -451,7 +451,9 @@ TASKS.register(
 
 #: damping functions of :func:`damping_sensitivity`
 DAMPING_CHOICES = ("adams-default", "step", "step-custom", "constant", "calibrated")
-MODELS = ("modal-table1",)
+#: model paths: the linear modal surrogate, or a rig model variant against a virtual-rig recording
+RIG_MODELS = ("rig-1", "rig-2", "rig-3")
+MODELS = ("modal-table1",) + RIG_MODELS
 
 
 def _damping_ratios(frequency_hz: np.ndarray, identified: np.ndarray, damping: str, ratio: float,
@@ -475,8 +477,16 @@ def damping_sensitivity(*, seed: int, model: str = "modal-table1", signal: str =
                         ratio: float = 0.02, step_x0_hz: float = 0.0, step_h0: float = 0.166,
                         step_x1_hz: float = 450.0, step_h1: float = 1.0, duration_s: float = 60.0,
                         sample_rate_hz: float = 1000.0, rms_m: float = 0.25e-3,
-                        beta: float = 5.0) -> dict[str, Any]:
+                        beta: float = 5.0, measured_scenario: str = "thesis") -> dict[str, Any]:
     r"""Relative pseudo damage per z sensor for a modal damping function.
+
+    **Rig path** (``model='rig-1'|'rig-2'|'rig-3'``): the thesis's study itself. The
+    "measured" recording is the virtual rig's ``measured_scenario`` (default ``'thesis'``)
+    for ``signal`` and ``seed`` (generated once and cached in the body cache directory,
+    ``virtual/``); the model variant with the damping function (times ``damping_scale``)
+    applied to each flexible body's modes is simulated (linear path) with the recording's
+    drive channel, and the relative pseudo damage of every z sensor is computed after the
+    first second. ``'calibrated'`` means thesis Table 6 per body (Model 3 only).
 
     **Model path: the linear modal surrogate** (``model='modal-table1'``), not the Exudyn
     rig: the ten modes of thesis Table 1 on the thesis's response channels
@@ -525,6 +535,10 @@ def damping_sensitivity(*, seed: int, model: str = "modal-table1", signal: str =
     from ..identify.synthetic import BaseExcitedSystem, table1_system
     from ..signals import drive_signal
 
+    if model in RIG_MODELS:
+        return _rig_damping_sensitivity(model, signal, damping, damping_scale, ratio,
+                                        (step_x0_hz, step_h0, step_x1_hz, step_h1), duration_s, seed, beta,
+                                        measured_scenario)
     if model != "modal-table1":
         raise InputError(f"model {model!r}; expected one of {list(MODELS)}")
     base = table1_system()
@@ -553,6 +567,63 @@ def damping_sensitivity(*, seed: int, model: str = "modal-table1", signal: str =
     return out
 
 
+def _virtual_measurement(scenario_name: str, signal: str, seed: int, duration_s: float):
+    """Return the virtual rig's recording of ``scenario_name`` (cached on disk, written atomically)."""
+    from ..cache import cache_dir
+    from ..recording import read_recording, write_recording
+    from ..virtual_rig import scenario, virtual_recording
+
+    sc = scenario(scenario_name).with_seed(seed)
+    folder = cache_dir() / "virtual"
+    folder.mkdir(parents=True, exist_ok=True)
+    path = folder / f"{sc.name}_{signal}_s{seed}_{duration_s:g}s.h5"
+    if path.exists():
+        return read_recording(path)
+    rec = virtual_recording(sc, signal, duration_s)
+    write_recording(rec, path)
+    return rec
+
+
+def _rig_damping_sensitivity(model, signal, damping, damping_scale, ratio, step, duration_s, seed, beta,
+                             measured_scenario):
+    from ..damping import MAX_RATIO, THESIS_TABLE6, PerBody
+    from ..fatigue import pseudo_damage
+    from ..model import build_model
+    from ..simulate import simulate
+
+    variant = int(model[-1])
+    if damping == "calibrated":
+        if variant != 3:
+            raise InputError(f"damping 'calibrated' on {model!r}: the per-body Table 6 exists for model 3 "
+                             "only; use rig-3 or another damping")
+        chosen = PerBody({k: float(np.clip(v * damping_scale, 1e-6, MAX_RATIO))
+                          for k, v in THESIS_TABLE6.ratios.items()}, default=THESIS_TABLE6.default)
+    else:
+        def chosen(frequency_hz):
+            z = _damping_ratios(np.asarray(frequency_hz, dtype=float), np.zeros(0), damping, ratio, step)
+            return np.clip(np.asarray(z, dtype=float) * damping_scale, 1e-6, MAX_RATIO)
+    measured = _virtual_measurement(measured_scenario, signal, seed, duration_s)
+    rig = build_model(variant, damping=chosen, exudyn_mesh="used")
+    drive = measured.drive
+    sim = simulate(rig, drive.data, method="linear", drive_rate_hz=drive.sample_rate_hz)
+    k0 = 1000  # the first second (fade-in) is not compared
+    out: dict[str, Any] = {}
+    rpd = []
+    for ch in sim:
+        if ch.role != "response" or ch.direction != "Z" or ch.name not in measured.names:
+            continue
+        m = measured.channel(ch.name).data
+        n = min(m.size, ch.data.size)
+        value = float(np.sum(pseudo_damage(ch.data[k0:n], beta)) / np.sum(pseudo_damage(m[k0:n], beta)))
+        out[f"rpd.{ch.name}"] = value
+        rpd.append(value)
+    rpd = np.array(rpd)
+    zeta = np.concatenate([np.asarray(r, dtype=float).ravel() for r in rig.damping_ratios.values()])
+    out.update(rpd_mean=float(np.exp(np.mean(np.log(rpd)))), rpd_min=float(rpd.min()),
+               rpd_max=float(rpd.max()), zeta_mean=float(zeta.mean()))
+    return out
+
+
 def _signal_names() -> tuple[str, ...]:
     from ..signals import SIGNALS
 
@@ -565,7 +636,9 @@ TASKS.register(
         damping_sensitivity,
         (
             Parameter("model", "str", choices=MODELS, default="modal-table1",
-                      doc="model path (only the linear modal surrogate so far)"),
+                      doc="model path: the linear modal surrogate, or rig-1/2/3 against the virtual rig"),
+            Parameter("measured_scenario", "str", default="thesis",
+                      doc="virtual-rig scenario of the 'measured' recording (rig paths)"),
             Parameter("signal", "str", choices=_signal_names(), default="test"),
             Parameter("damping", "str", choices=DAMPING_CHOICES, default="adams-default"),
             Parameter("damping_scale", "float", "", (1e-3, 100.0), default=1.0),
