@@ -1,0 +1,95 @@
+"""Thesis scenario benchmark (issue #7 acceptance): virtual test + EMA against thesis Table 1.
+
+Runs, as a user would::
+
+    exudyn-study virtual-test --scenario thesis --signal white-noise --out DIR
+    exudyn-study identify DIR/thesis_white-noise.h5 -r ARFVZ ARFHZ --band 3 50 --json DIR/modes.json
+
+then pairs the identified modes one-to-one with thesis Table 1
+(:func:`exudyn_study.virtual_rig.thesis.compare_table1`, least total log-frequency distance)
+and prints, per Table-1 mode, the identified frequency and damping ratio with their relative
+errors, the modes left over, how many are within 10 % in both, and the wall times. With
+``--modes`` it also prints the linearised truth's system modes (the fit's view: frequency,
+damping, shape description).
+
+Run:  python benchmarks/bench_thesis_scenario.py --out /tmp/thesis_bench [--modes] [--plots]
+"""
+
+from __future__ import annotations
+
+import argparse
+import json
+import subprocess
+import sys
+import time
+from pathlib import Path
+
+from exudyn_study.virtual_rig.thesis import compare_table1
+
+
+def _run(cmd: list[str]) -> tuple[float, str]:
+    t0 = time.perf_counter()
+    out = subprocess.run(cmd, capture_output=True, text=True)
+    if out.returncode != 0:
+        sys.exit(f"{' '.join(cmd)} failed ({out.returncode}):\n{out.stdout}\n{out.stderr}")
+    return time.perf_counter() - t0, out.stdout
+
+
+def truth_modes() -> float:
+    """Print the linearised truth's system modes up to 60 Hz; return the wall time."""
+    from exudyn_study.modal import linearize, system_modes
+    from exudyn_study.virtual_rig.run import build_truth
+    from exudyn_study.virtual_rig.thesis import THESIS_SCENARIO
+
+    t0 = time.perf_counter()
+    model, _ = build_truth(THESIS_SCENARIO)
+    model.assemble()
+    modes = system_modes(model, linearize(model), max_frequency_hz=60.0)
+    print("linearised truth (system modes, 0-60 Hz):")
+    for f, z, d in zip(modes.frequency_hz, modes.damping_ratio, modes.descriptions):
+        print(f"  {f:7.2f} Hz  {100 * z:5.2f} %  {d}")
+    return time.perf_counter() - t0
+
+
+def main(argv=None) -> int:
+    ap = argparse.ArgumentParser(description=__doc__.splitlines()[0])
+    ap.add_argument("--out", default="/tmp/thesis_bench", help="output directory (created)")
+    ap.add_argument("--modes", action="store_true", help="also print the linearised truth's modes")
+    ap.add_argument("--plots", action="store_true", help="identification figures into OUT/plots")
+    args = ap.parse_args(argv)
+    out = Path(args.out)
+    out.mkdir(parents=True, exist_ok=True)
+    if args.modes:
+        print(f"truth modes: {truth_modes():.1f} s wall\n")
+    t_vt, _ = _run(["exudyn-study", "virtual-test", "--scenario", "thesis", "--signal", "white-noise",
+                    "--out", str(out)])
+    cmd = ["exudyn-study", "identify", str(out / "thesis_white-noise.h5"), "-r", "ARFVZ", "ARFHZ",
+           "--band", "3", "50", "--json", str(out / "modes.json")]
+    if args.plots:
+        cmd += ["--plots", str(out / "plots")]
+    t_id, text = _run(cmd)
+    print(text)
+    modes = json.loads((out / "modes.json").read_text())["modes"]
+    f = [m["frequency_hz"] for m in modes]
+    z = [m["damping_ratio"] for m in modes]
+    rows = compare_table1(f, z)
+    print("Table 1                                 | identified      | error")
+    print("  f [Hz]  zeta [%]  description         |  f [Hz] zeta [%] |  df [%]  dzeta [%]")
+    for r in rows:
+        head = f"  {r['table_hz']:6.2f}  {100 * r['table_zeta']:5.2f}    {r['description']:<20s}|"
+        if r["index"] is None:
+            print(head + "    (none)       |")
+            continue
+        print(head + f"  {r['frequency_hz']:6.2f}  {100 * r['damping_ratio']:5.2f}  | {100 * r['freq_error']:+6.1f}"
+              f"  {100 * r['zeta_error']:+7.1f}  {'ok' if r['within_10pct'] else ''}")
+    extra = [f"{f[i]:.2f} Hz / {100 * z[i]:.2f} %" for i in rows[-1]["extra"]]
+    n_f = sum(r["index"] is not None and abs(r["freq_error"]) <= 0.10 for r in rows)
+    n_ok = sum(r["within_10pct"] for r in rows)
+    print(f"identified {len(f)} modes in 3-50 Hz; not in Table 1: {extra or 'none'}")
+    print(f"within 10 %: frequency {n_f}/10, frequency and damping {n_ok}/10")
+    print(f"wall: virtual-test {t_vt:.1f} s, identify {t_id:.1f} s")
+    return 0
+
+
+if __name__ == "__main__":
+    sys.exit(main())

@@ -1,0 +1,87 @@
+"""The ``thesis`` scenario (issue #7): its description validates, the Table-1 pairing is right,
+and (slow, real Model 3 bodies from the cache) the linearised truth has its modes where the fit
+put them.
+"""
+
+from __future__ import annotations
+
+import dataclasses
+
+import numpy as np
+import pytest
+
+from exudyn_study.errors import InputError
+from exudyn_study.virtual_rig import SCENARIOS
+from exudyn_study.virtual_rig.scenarios import THESIS_TABLE1
+from exudyn_study.virtual_rig.thesis import (
+    THESIS_PARAMETERS,
+    THESIS_SCENARIO,
+    compare_table1,
+    thesis_augmentations,
+)
+
+TABLE_HZ = np.array([row[0] for row in THESIS_TABLE1])
+TABLE_ZETA = np.array([row[1] for row in THESIS_TABLE1])
+
+
+def test_registered_and_valid():
+    assert SCENARIOS["thesis"] is THESIS_SCENARIO
+    assert THESIS_SCENARIO.variant == 3
+    THESIS_SCENARIO.validate()  # every entry and parameter within its bounds
+
+
+def test_augmentations_follow_the_parameters():
+    aug = thesis_augmentations(THESIS_PARAMETERS)
+    joints = [a.location for a in aug if a.physics == "joint_stiffness"]
+    assert sorted(joints) == sorted(THESIS_PARAMETERS["joints"])
+    assert "bracket_left.bracket_left" not in joints  # the rubber bracket keeps its fixed joint
+    assert sum(a.physics == "drive_linkage_compliance" for a in aug) == 1
+    assert aug == THESIS_SCENARIO.augmentations
+
+
+def test_a_parameter_out_of_bounds_is_named():
+    bad = dict(THESIS_PARAMETERS, drive_linkage=dict(THESIS_PARAMETERS["drive_linkage"], mass_kg=-1.0))
+    sc = dataclasses.replace(THESIS_SCENARIO, augmentations=thesis_augmentations(bad))
+    with pytest.raises(InputError, match="mass_kg"):
+        sc.validate()
+
+
+def test_table1_pairs_with_itself_exactly():
+    rows = compare_table1(TABLE_HZ, TABLE_ZETA)
+    assert [r["index"] for r in rows] == list(range(10))
+    assert all(r["within_10pct"] and r["freq_error"] == 0.0 for r in rows)
+    assert rows[-1]["extra"] == []
+
+
+def test_pairing_is_one_to_one_and_reports_extra_and_missing():
+    rng = np.random.default_rng(0)
+    order = rng.permutation(10)
+    f = TABLE_HZ[order] * 1.05            # 5 % high, shuffled
+    z = TABLE_ZETA[order] * 0.8           # 20 % low: frequency fine, damping not
+    f = np.append(f, 28.0)                # a rig mode Table 1 does not have
+    z = np.append(z, 0.08)
+    rows = compare_table1(f, z)
+    for k, r in enumerate(rows):
+        assert order[r["index"]] == k
+        assert r["freq_error"] == pytest.approx(0.05)
+        assert r["zeta_error"] == pytest.approx(-0.2)
+        assert not r["within_10pct"]
+    assert rows[-1]["extra"] == [10]
+    rows = compare_table1(TABLE_HZ[:7], TABLE_ZETA[:7])  # three modes not identified
+    assert [r["index"] for r in rows[7:]] == [None, None, None]
+    assert sum(r["within_10pct"] for r in rows) == 7
+
+
+@pytest.mark.slow
+def test_linearised_truth_has_tank_modes_below_model3():
+    """Real Model 3 bodies (cache): the compliant tank mounts bring tank modes down to 10-17 Hz."""
+    from exudyn_study.modal import linearize, system_modes
+    from exudyn_study.virtual_rig.run import build_truth
+
+    model, applied = build_truth(THESIS_SCENARIO)
+    assert len(applied) == len(THESIS_SCENARIO.augmentations)
+    model.assemble()
+    modes = system_modes(model, linearize(model), max_frequency_hz=60.0)
+    tank_z = [f for f, d in zip(modes.frequency_hz, modes.descriptions) if d.startswith("tank") and " z" in d]
+    assert tank_z and 10.0 < min(tank_z) < 17.0  # Model 3 with fixed joints: 22 Hz
+    assert np.all(modes.damping_ratio > 0)
