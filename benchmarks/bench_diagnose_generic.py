@@ -8,7 +8,10 @@ searches every sensor pair for the joint (no interface declared). Prints per lev
 error of the nominal and the fitted model, the named physics and its parameters against
 the truth, and wall times.
 
-    python benchmarks/bench_diagnose_generic.py [--joints friction stiffening] [--out DIR]
+    python benchmarks/bench_diagnose_generic.py [--joints friction stiffening] [--force] [--out DIR]
+
+With ``--force`` the structure is driven by a shaker force on B3 (0.15, 0.45, 1.5, 4.5 N rms,
+table fixed, drive-point accelerometer B3) instead of the table.
 
 With ``--out`` the diagnosis JSON and the HTML report of each case are written there.
 """
@@ -26,6 +29,7 @@ from exudyn_study.diagnose import testbench as tb
 from exudyn_study.diagnose.report import write_report
 
 LEVELS = (0.1, 0.3, 1.0, 3.0)
+FORCE_LEVELS = (0.15, 0.45, 1.5, 4.5)
 TRAIN, HOLDOUT = (0, 2), (1, 3)
 
 
@@ -43,18 +47,23 @@ def truth(joint: str, s: tb.TestStructure) -> str:
 def main() -> None:
     parser = argparse.ArgumentParser(description=__doc__.splitlines()[0])
     parser.add_argument("--joints", nargs="+", default=list(tb.JOINTS), choices=tb.JOINTS)
+    parser.add_argument("--force", action="store_true", help="shaker force on B3 instead of the table drive")
     parser.add_argument("--out", type=Path, default=None, help="write JSON + HTML report per case here")
     args = parser.parse_args()
     if args.out is not None:
         args.out.mkdir(parents=True, exist_ok=True)
     s = tb.TestStructure()
+    levels = FORCE_LEVELS if args.force else LEVELS
     print(
-        f"levels (m/s^2 rms): {LEVELS}; train {[LEVELS[i] for i in TRAIN]}, "
-        f"held out {[LEVELS[i] for i in HOLDOUT]}"
+        f"levels ({'N' if args.force else 'm/s^2'} rms): {levels}; train {[levels[i] for i in TRAIN]}, "
+        f"held out {[levels[i] for i in HOLDOUT]}"
     )
     for joint in args.joints:
         t0 = time.perf_counter()
-        recs = tb.simulate_levels(joint, levels=LEVELS)
+        if args.force:
+            recs = tb.simulate_levels(joint, levels=FORCE_LEVELS, force_at="B3")
+        else:
+            recs = tb.simulate_levels(joint, levels=LEVELS)
         t_sim = time.perf_counter() - t0
         figures: dict = {}
         t0 = time.perf_counter()
@@ -64,9 +73,9 @@ def main() -> None:
             [recs[i] for i in HOLDOUT],
             figures=figures,
             labels={
-                "reference": "L0.1",
-                "train": [f"L{LEVELS[i]:g}" for i in TRAIN],
-                "holdout": [f"L{LEVELS[i]:g}" for i in HOLDOUT],
+                "reference": f"L{levels[0]:g}",
+                "train": [f"L{levels[i]:g}" for i in TRAIN],
+                "holdout": [f"L{levels[i]:g}" for i in HOLDOUT],
             },
         )
         t_diag = time.perf_counter() - t0

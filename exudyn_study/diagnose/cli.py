@@ -60,6 +60,12 @@ def configure(parser: argparse.ArgumentParser) -> None:
         "table); default: search every sensor pair",
     )
     parser.add_argument(
+        "--drive-point",
+        default=None,
+        metavar="SENSOR",
+        help="generic path, force drive: the accelerometer at the force (default: the one at its position)",
+    )
+    parser.add_argument(
         "--resolution",
         type=float,
         default=None,
@@ -165,6 +171,7 @@ def run(args: argparse.Namespace) -> int:
             labels=labels,
             progress=lambda msg: print(msg, file=sys.stderr) if getattr(args, "verbose", False) else None,
             figures=figures,
+            drive_point=args.drive_point,
         )
     if args.report is not None:
         from .report import write_report

@@ -1,8 +1,9 @@
 """Diagnosis of a generic structure tested at several levels: locate, name and model a joint nonlinearity.
 
 The nominal model is a linear modal model identified from the lowest-level (reference)
-recording; the recordings are a drive (displacement of the table or shaker, role
-'drive') and a handful of accelerometers. :func:`diagnose_generic` then
+recording; the recordings are a drive (role 'drive': the table displacement of a base
+excitation, or a shaker force with an accelerometer at the drive point) and a handful of
+accelerometers. :func:`diagnose_generic` then
 
 1. **compares** every recording with the nominal model per channel and frequency band:
    transmissibility residuals (H1, response acceleration per drive acceleration)
@@ -43,18 +44,19 @@ generic counterparts of the catalogue's rig entries):
     Signature: frequencies rise with level once the gap closes and level off when it is
     always closed; strong distortion (coherence drop).
 
-The reduced model's mass scale is not observable from a displacement drive and
-accelerometers; the relative masses at the sensors come from the orthogonality of the
-identified shapes (lumped at the sensors), and the element's parameters are reported
-relative to the identified linear stiffness of the interface (shares, ratios) and in
-metres (slip displacement, gap), which are scale-free.
+With a displacement drive the reduced model's mass scale is not observable; the relative
+masses at the sensors come from the orthogonality of the identified shapes (lumped at the
+sensors). With a force drive the drive-point residues mass-normalise the shapes and the
+masses come out in kg. Either way the element's parameters are reported relative to the
+identified linear stiffness of the interface (shares, ratios) and in metres (slip
+displacement, gap), which do not depend on the mass scale.
 
-Limitations: the drive must be a displacement (table or base excitation; a force drive is
-refused with a message); one local element at one interface is fitted per diagnosis; the
-equivalent-linear (Gaussian statistical linearisation, Rayleigh-averaged describing function for
-the Jenkins element) fit only starts the time-simulation refinement; parameter standard
-deviations are statistical (from the time-simulation Jacobian) and do not include the bias of
-the identified linear link stiffness (a few per cent on the test structure).
+Limitations: one drive (a table displacement or one shaker force); one local element at one
+interface is fitted per diagnosis; the equivalent-linear fit (Gaussian statistical
+linearisation, Rayleigh-averaged describing function for the Jenkins element) only starts
+the time-simulation refinement; parameter standard deviations are statistical (from the
+time-simulation Jacobian) and do not include the bias of the identified linear link
+stiffness (a few per cent on the test structure).
 
 References
 ----------
@@ -153,6 +155,7 @@ class _Layout:
     channels: tuple[str, ...]
     sample_rate_hz: float
     drive: str
+    force: bool = False
 
 
 def _label(rec: Recording, default: str) -> str:
@@ -174,10 +177,10 @@ def _layout_of(rec: Recording, who: str) -> tuple:
             f"{who}: recording has {len(drives)} drive channels "
             f"({', '.join(d.name for d in drives)}); expected exactly one"
         )
-    if drives[0].quantity != "displacement":
+    if drives[0].quantity not in ("displacement", "force"):
         raise InputError(
-            f"{who}: drive channel {drives[0].name!r} is a {drives[0].quantity}; the generic diagnosis "
-            "supports a displacement drive (table or base excitation) only; record the table displacement"
+            f"{who}: drive channel {drives[0].name!r} is an {drives[0].quantity}; expected the table "
+            "displacement (base excitation) or the shaker force (with a drive-point accelerometer)"
         )
     resp = rec.response_channels
     if not resp:
@@ -245,6 +248,11 @@ def check_recordings(
                     f"{who}: sensor layout differs from the model reference recording ({diff}); "
                     "all recordings must come from the same sensor layout as the model"
                 )
+            if drv.quantity != ref_drive.quantity:
+                raise InputError(
+                    f"{who}: drive channel is a {drv.quantity}, the model reference's a "
+                    f"{ref_drive.quantity}; all recordings must be driven the same way"
+                )
             rates = {c.sample_rate_hz for c in rec.response_channels} | {drv.sample_rate_hz}
             if rates != {fs}:
                 raise InputError(
@@ -254,7 +262,7 @@ def check_recordings(
             names[(group, i)] = _label(rec, f"{group}[{i}]")
     chans = tuple(n for n, _, _ in ref_layout)
     itfs = _check_interfaces(interfaces, chans)
-    return _Layout(chans, fs, ref_drive.name), names, itfs
+    return _Layout(chans, fs, ref_drive.name, ref_drive.quantity == "force"), names, itfs
 
 
 def _check_interfaces(interfaces, channels) -> dict[str, tuple[str, str]]:
@@ -294,14 +302,15 @@ class _Spectra:
     T: np.ndarray  # (n_s, n_f) transmissibility H1 (response acc / drive acc)
     coherence: np.ndarray  # (n_s, n_f)
     sigma: np.ndarray  # (n_s, n_f) standard error of T (complex, E|dT|^2 = sigma^2)
-    g_aa: np.ndarray  # (n_f,) drive acceleration autospectrum, (m/s^2)^2/Hz
-    level: float  # drive acceleration rms in m/s^2
-    drive_m: np.ndarray  # drive displacement samples
-    drive_acc: np.ndarray  # drive acceleration samples (spline)
+    g_aa: np.ndarray  # (n_f,) autospectrum of the reference signal ((m/s^2)^2/Hz or N^2/Hz)
+    level: float  # reference rms: drive acceleration in m/s^2, or force in N
+    drive_m: np.ndarray  # drive samples: table displacement (m) or force (N)
+    drive_acc: np.ndarray  # reference signal: drive acceleration (spline, m/s^2) or the force (N)
     response: np.ndarray  # (n_s, n) measured accelerations
     resolution_hz: float
     n_averages: int
     rate_hz: float
+    force: bool = False
 
 
 def _drive_acceleration(u: np.ndarray, fs: float) -> np.ndarray:
@@ -320,7 +329,8 @@ def _spectra(
 ) -> _Spectra:
     x, fs = rec.time_data(layout.channels)
     u = rec.channel(rec.drive.name).data
-    a_b = _drive_acceleration(np.asarray(u, dtype=float), fs)
+    force = rec.drive.quantity == "force"
+    a_b = np.asarray(u, dtype=float) if force else _drive_acceleration(np.asarray(u, dtype=float), fs)
     try:
         frf = _welch_T(a_b, x, fs, settings.resolution_hz, fs / 2)
     except InputError as exc:
@@ -348,6 +358,7 @@ def _spectra(
         frf.resolution_hz,
         frf.n_averages,
         float(fs),
+        force,
     )
 
 
@@ -391,6 +402,10 @@ class ReducedModel:
         Effective modal masses in the same relative unit.
     masses_estimated : bool
         False when the orthogonality estimate failed and equal masses are used.
+    direct : float
+        1 for a displacement drive (T is the transmissibility, the table's acceleration passes
+        straight through); 0 for a force drive (T is the accelerance, ``psi`` the negated residues
+        ``phi_r(s) phi_r(d)``, ``gamma2`` the drive-point residues: mass-normalised, in kg).
     """
 
     channels: tuple
@@ -402,6 +417,7 @@ class ReducedModel:
     gamma2: np.ndarray
     masses_estimated: bool = True
     metadata: dict = field(default_factory=dict)
+    direct: float = 1.0
 
     @property
     def omega(self) -> np.ndarray:
@@ -411,7 +427,7 @@ class ReducedModel:
     def transmissibility(self, freq_hz, kern=None) -> np.ndarray:
         """``T[n_channels, n_freq]`` of the linear model (Welch-smoothed with ``kern`` = (grid, weights))."""
         b = _modal_basis(freq_hz, self.frequency_hz, self.damping_ratio, kern)
-        return 1.0 + self.psi @ b[:-1] + self.upper[:, None] * b[-1]
+        return self.direct + self.psi @ b[:-1] + self.upper[:, None] * b[-1]
 
     def _row(self, s: str) -> np.ndarray:
         if s == GROUND:
@@ -481,7 +497,7 @@ def _vp_fit(spec: _Spectra, f0, z0, fixed_poles: bool = False):
     The model is compared with the Welch estimate through the spectral window (expected H1),
     so the damping carries no resolution bias.
     """
-    T1 = spec.T - 1.0
+    T1 = spec.T - (0.0 if spec.force else 1.0)
     wgt = 1.0 / np.maximum(spec.sigma, 1e-12 * np.max(np.abs(spec.T)))
     n_s, n_m = T1.shape[0], len(f0)
     kern = _grid(spec)
@@ -579,8 +595,14 @@ def _add_missed_peaks(spec: _Spectra, f0: np.ndarray, z0: np.ndarray):
     return f0, z0
 
 
-def identify_reduced_model(spec: _Spectra, channels, f0=None, z0=None) -> ReducedModel:
-    """Identify the real-mode reduced model from the reference spectra (poles from PolyMAX)."""
+def identify_reduced_model(
+    spec: _Spectra, channels, f0=None, z0=None, drive_point: str | None = None
+) -> ReducedModel:
+    """Identify the real-mode reduced model from the reference spectra (poles from PolyMAX).
+
+    With a force drive, ``drive_point`` names the accelerometer at the force (its residues give
+    the mass normalisation).
+    """
     from ..identify.frf import FRF
     from ..identify.pipeline import identify_frf
 
@@ -613,12 +635,42 @@ def identify_reduced_model(spec: _Spectra, channels, f0=None, z0=None) -> Reduce
         f0, z0 = res.model.frequency_hz, np.maximum(res.model.damping_ratio, 2e-3)
         f0, z0 = _add_missed_peaks(spec, np.asarray(f0, float), np.asarray(z0, float))
     f_r, z_r, psi, upper, _, _ = _vp_fit(spec, np.asarray(f0, float), np.asarray(z0, float))
+    if spec.force:
+        return _force_model(spec, tuple(channels), f_r, z_r, psi, upper, drive_point)
     masses, ok = _relative_masses(psi)
     gamma2 = masses @ psi
     if np.any(gamma2 <= 0):
         masses, ok = np.full(len(channels), 1.0 / len(channels)), False
         gamma2 = np.maximum(masses @ psi, 1e-6 * np.max(np.abs(masses @ psi)))
     return ReducedModel(tuple(channels), f_r, z_r, psi, upper, masses, gamma2, ok)
+
+
+def _force_model(spec, channels, f_r, z_r, psi, upper, drive_point) -> ReducedModel:
+    """Mass-normalised model of a force-driven structure (drive-point residues positive)."""
+    d = channels.index(drive_point)
+    gamma2 = -psi[d]
+    keep = gamma2 > 1e-6 * np.max(np.abs(gamma2))
+    if not keep.any():
+        raise InputError(
+            f"model reference recording {spec.label!r}: channel {drive_point!r} does not behave as the "
+            "drive-point accelerometer (no positive drive-point residue); name the accelerometer at the force"
+        )
+    if not keep.all():
+        log.info("dropping %d mode(s) without a positive drive-point residue", int((~keep).sum()))
+    f_r, z_r, psi, gamma2 = f_r[keep], z_r[keep], psi[:, keep], gamma2[keep]
+    phi = -psi / np.sqrt(gamma2)  # mass-normalised shapes at the sensors
+    # lumped masses at the sensors from phi^T M phi = I (absolute scale here)
+    n_m = phi.shape[1]
+    rows, rhs = [], []
+    for r in range(n_m):
+        for q in range(r, n_m):
+            rows.append(phi[:, r] * phi[:, q])
+            rhs.append(1.0 if r == q else 0.0)
+    m, *_ = np.linalg.lstsq(np.array(rows), np.array(rhs), rcond=None)
+    ok = bool(np.all(m > 0))
+    if not ok:
+        m = np.full(len(channels), 1.0 / max(np.mean(np.sum(phi**2, axis=0)), 1e-300))
+    return ReducedModel(channels, f_r, z_r, psi, upper, m, gamma2, ok, {"drive_point": drive_point}, 0.0)
 
 
 # ------------------------------------------------------------------------------------- joint laws
@@ -789,7 +841,11 @@ class _EL:
             inv = 1.0 / d
             delta0 = -np.tensordot(v, inv, axes=1)  # (n_f, n_off)
             gvd = np.tensordot(v * w, inv, axes=1)
-            t_lin = 1.0 + np.tensordot(model.psi, inv, axes=1) * wf**2 + model.upper[:, None, None] * wf**2
+            t_lin = (
+                model.direct
+                + np.tensordot(model.psi, inv, axes=1) * wf**2
+                + model.upper[:, None, None] * wf**2
+            )
             p_el = np.tensordot(model.psi, w[:, None, None] * inv, axes=1) * wf**2  # (n_s, n_f, n_off)
             c = kw.size // 2
             self.items.append(
@@ -887,7 +943,8 @@ class _TimeSim:
         for k, sp in enumerate(specs):
             t = np.arange(sp.drive_m.size) / rate
             tf = np.arange((sp.drive_m.size - 1) * substeps + 1) * h
-            p_fine[k, : tf.size] = -CubicSpline(t, sp.drive_m, bc_type="natural")(tf, 2)
+            spline = CubicSpline(t, sp.drive_m, bc_type="natural")
+            p_fine[k, : tf.size] = -(spline(tf) if sp.force else spline(tf, 2))
         xi = np.empty((n_rec, om.size, self.n_f), complex)
         for r in range(om.size):
             b = np.array([i1[r], i0[r] - i1[r]]) * self.scale[r]
@@ -901,7 +958,7 @@ class _TimeSim:
             - (2 * ze * om)[None, :, None] * self.eta_t[..., samp]
         )
         a_b = -p_fine[:, samp]
-        acc = a_b[:, None, :] + np.einsum("sm,rmn->rsn", model.psi, eta_dd)
+        acc = model.direct * a_b[:, None, :] + np.einsum("sm,rmn->rsn", model.psi, eta_dd)
         if np.any(model.upper != 0):
             spec = np.fft.rfft(a_b, axis=-1)
             wf = TWO_PI * np.fft.rfftfreq(a_b.shape[-1], 1.0 / rate)
@@ -1024,7 +1081,7 @@ class Comparison:
     labels : tuple of str
         Recordings (reference first, then train, then held-out; duplicates of the reference kept).
     levels : ndarray, shape (n_rec,)
-        Drive acceleration rms in m/s^2.
+        Drive acceleration rms in m/s^2 (force rms in N for a force drive).
     bands_hz : ndarray, shape (n_bands, 2)
         Frequency bands (one per identified mode, split at the geometric means).
     statistic : ndarray, shape (n_rec, n_channels, n_bands)
@@ -1366,8 +1423,8 @@ def _drift(el: _EL, law: _Law, theta, specs, idx, masks, sigma_ref) -> str:
 
 
 # ------------------------------------------------------------------------------------- main
-def _fmt_level(x: float) -> str:
-    return f"{x:.3g} m/s^2"
+def _fmt_level(x: float, unit: str = "m/s^2") -> str:
+    return f"{x:.3g} {unit}"
 
 
 def diagnose_generic(
@@ -1380,6 +1437,7 @@ def diagnose_generic(
     labels=None,
     progress=None,
     figures: dict | None = None,
+    drive_point: str | None = None,
 ) -> Diagnosis:
     """Diagnose a structure tested at several levels against its lowest-level linear modal model.
 
@@ -1400,6 +1458,9 @@ def diagnose_generic(
         ``{'reference': str, 'train': [str], 'holdout': [str]}`` names for the report (e.g. files).
     progress : callable(str), optional
         Receives one line per stage.
+    drive_point : str, optional
+        Force drive only: the accelerometer at the force (default: the response channel at the
+        force channel's position).
     figures : dict, optional
         If given, filled with the arrays the report draws
         (:func:`~exudyn_study.diagnose.report.write_report`).
@@ -1425,7 +1486,7 @@ def diagnose_generic(
     tr_labels = list(labels.get("train") or [names[("train", i)] for i in range(len(train))])
     ho_labels = list(labels.get("holdout") or [names[("holdout", i)] for i in range(len(holdout))])
 
-    say("spectra: FRFs (H1, drive acceleration reference) and coherence of every recording")
+    say("spectra: FRFs (H1) and coherence of every recording against the drive")
     ref0 = _spectra(reference, layout, ref_label, settings, None)
     band = tuple(settings.band_hz) if settings.band_hz else _auto_band(ref0)
     ref = _spectra(reference, layout, ref_label, settings, band)
@@ -1433,18 +1494,22 @@ def diagnose_generic(
         _spectra(r, layout, lab, settings, band) for r, lab in zip(train, tr_labels, strict=True)
     ]
     specs += [_spectra(r, layout, lab, settings, band) for r, lab in zip(holdout, ho_labels, strict=True)]
+    unit = "N" if layout.force else "m/s^2"
     lowest = min(specs, key=lambda sp: sp.level)
     if lowest.level < 0.8 * ref.level:
         warnings.warn(
-            f"recording {lowest.label!r} has a lower drive level ({lowest.level:.3g} m/s^2) than the model "
-            f"reference {ref_label!r} ({ref.level:.3g} m/s^2); identify the model from the lowest level",
+            f"recording {lowest.label!r} has a lower drive level ({_fmt_level(lowest.level, unit)}) than "
+            f"the model reference {ref_label!r} ({_fmt_level(ref.level, unit)}); identify the model from the "
+            "lowest level",
             stacklevel=2,
         )
     n_tr = len(train)
     tr_idx = list(range(1, 1 + n_tr))
     ho_idx = list(range(1 + n_tr, len(specs)))
     say(f"model: linear modal model from the reference {ref_label!r} ({band[0]:.3g}-{band[1]:.3g} Hz)")
-    model = identify_reduced_model(ref, layout.channels)
+    if layout.force:
+        drive_point = _drive_point(reference, layout, drive_point)
+    model = identify_reduced_model(ref, layout.channels, drive_point=drive_point)
     kerns = [_grid(sp) for sp in specs]
     say("compare: residuals per recording, channel and band against the measurement noise")
     comp = _compare(model, specs, kerns, ref, settings, [sp.label for sp in specs])
@@ -1455,12 +1520,17 @@ def diagnose_generic(
         "train": tr_labels,
         "holdout": ho_labels,
         "band_hz": list(band),
-        "levels_m_s2": {sp.label: sp.level for sp in specs},
+        "drive": "force" if layout.force else "displacement",
+        "level_unit": unit,
+        "levels": {sp.label: sp.level for sp in specs},
         "modes": [
             {"frequency_hz": float(f), "damping_ratio": float(z)}
             for f, z in zip(model.frequency_hz, model.damping_ratio, strict=True)
         ],
-        "relative_masses": {c: float(m) for c, m in zip(model.channels, model.masses, strict=True)},
+        "masses": {c: float(m) for c, m in zip(model.channels, model.masses, strict=True)},
+        "mass_unit": "kg"
+        if layout.force
+        else "relative (sum 1; the scale is unobservable with a displacement drive)",
         "masses_estimated": bool(model.masses_estimated),
         "coherence": {sp.label: float(c) for sp, c in zip(specs, comp.coherence.mean(axis=1), strict=True)},
         "significance": {
@@ -1472,6 +1542,7 @@ def diagnose_generic(
     }
     if figures is not None:
         figures.update(
+            level_unit=unit,
             channels=list(layout.channels),
             freq_hz=ref.freq_hz,
             labels=[sp.label for sp in specs],
@@ -1546,7 +1617,7 @@ def diagnose_generic(
         shifts.append(
             {
                 "recording": specs[i].label,
-                "level_m_s2": float(lv[i]),
+                "level": float(lv[i]),
                 "link_stiffness_change": [float(dk.real), float(dk.imag)],
                 "frequency_hz": f.tolist(),
                 "damping_ratio": z.tolist(),
@@ -1727,6 +1798,25 @@ def diagnose_generic(
     return Diagnosis(True, (finding,), (), meta)
 
 
+def _drive_point(reference: Recording, layout: _Layout, name: str | None) -> str:
+    if name is not None:
+        if name not in layout.channels:
+            raise InputError(
+                f"drive_point {name!r} is not a response channel; expected one of {list(layout.channels)}"
+            )
+        return name
+    pos = reference.channel(layout.drive).position_m
+    if pos is not None:
+        for ch in layout.channels:
+            p = reference.channel(ch).position_m
+            if p is not None and np.allclose(p, pos, atol=1e-6):
+                return ch
+    raise InputError(
+        f"force drive {layout.drive!r}: no accelerometer at its position; name the drive-point "
+        "accelerometer (drive_point=..., --drive-point)"
+    )
+
+
 def _is_pair_name(name: str, pair) -> bool:
     return name == f"{pair[0]}-{pair[1]}"
 
@@ -1774,11 +1864,13 @@ def _explain(
 ) -> str:
     law, theta = chosen.law, chosen.theta
     top = shifts[-1] if shifts else None
+    unit = "N" if specs[0].force else "m/s^2"
     parts = []
     lv = comp.levels
     parts.append(
         f"The measured response differs from the linear model of the lowest-level recording "
-        f"({_fmt_level(lv[0])} rms drive acceleration) at {', '.join(sensors)} in "
+        f"({_fmt_level(lv[0], unit)} rms {'force' if unit == 'N' else 'drive acceleration'}) at "
+        f"{', '.join(sensors)} in "
         f"{band[0]:.3g}-{band[1]:.3g} Hz"
         + (", and the difference grows with the level." if level_dep else ".")
     )
@@ -1787,7 +1879,7 @@ def _explain(
         z0, z1 = model.damping_ratio, np.array(top["damping_ratio"])
         r = int(np.argmax(np.abs(f1 - f0) / f0))
         parts.append(
-            f"At {_fmt_level(top['level_m_s2'])} the mode at {f0[r]:.3g} Hz has moved to {f1[r]:.3g} Hz "
+            f"At {_fmt_level(top['level'], unit)} the mode at {f0[r]:.3g} Hz has moved to {f1[r]:.3g} Hz "
             f"and its damping from {100 * z0[r]:.2g} % to {100 * z1[r]:.2g} %."
         )
     coh0, coh1 = comp.coherence[0].mean(), comp.coherence[int(np.argmax(lv))].mean()

@@ -49,6 +49,10 @@ def _save(fig, path: Path) -> Path:
     return path
 
 
+def _unit(data: Mapping) -> str:
+    return str(data.get("level_unit", "m/s^2")).replace("^2", "$^2$")
+
+
 def _residual_map(data: Mapping, path: Path) -> Path | None:
     rmap = data.get("residual_map")
     if rmap is None:
@@ -81,7 +85,11 @@ def _residual_map(data: Mapping, path: Path) -> Path | None:
             else ("train" if labels[i] in data.get("train", []) else "reference")
         )
         ax.set_ylabel(
-            f"{labels[i]}\n{levels[i]:.3g} m/s$^2$\n({role})", fontsize=7, rotation=0, ha="right", va="center"
+            f"{labels[i]}\n{levels[i]:.3g} {_unit(data)}\n({role})",
+            fontsize=7,
+            rotation=0,
+            ha="right",
+            va="center",
         )
         for lo, _ in np.asarray(data.get("bands_hz", []))[1:]:
             ax.axvline(lo, color="w", lw=0.5, alpha=0.5)
@@ -131,7 +139,7 @@ def _frf_overlay(data: Mapping, path: Path) -> Path | None:
                 )
             role = "held-out" if lab in data.get("holdout", []) else "train"
             lv = levels.get(lab, np.nan)
-            ax.set_title(f"{s}, {lab} ({role}, {lv:.3g} m/s$^2$)", fontsize=8)
+            ax.set_title(f"{s}, {lab} ({role}, {lv:.3g} {_unit(data)})", fontsize=8)
             ax.grid(True, which="both", alpha=0.3)
             if c == 0:
                 ax.set_ylabel("|T| (acc / drive acc)")
@@ -280,13 +288,13 @@ def write_report(
                 ("input", "value"),
             )
         )
-        if "levels_m_s2" in meta:
+        levels = meta.get("levels") or meta.get("levels_m_s2")
+        if levels:
+            unit = meta.get("level_unit", "m/s^2")
+            what = "force" if unit == "N" else "drive acceleration"
             parts.append("<h3>Excitation levels</h3>")
             parts.append(
-                _table(
-                    [(k, _fmt(v)) for k, v in meta["levels_m_s2"].items()],
-                    ("recording", "drive acceleration rms (m/s^2)"),
-                )
+                _table([(k, _fmt(v)) for k, v in levels.items()], ("recording", f"{what} rms ({unit})"))
             )
     for f in diagnosis.findings:
         parts.append(f"<h2>Finding: {html.escape(f.physics)}</h2>")

@@ -176,10 +176,17 @@ def _matrices(structure: TestStructure):
     return mf, cf, kf
 
 
-def linear_system(structure: TestStructure | None = None):
+def linear_system(structure: TestStructure | None = None, force_at: str | None = None):
     """Return the structure as a :class:`~exudyn_study.modal.LinearSystem` (table = drive).
 
     Sensors measure absolute accelerations; the joint spring is the small-amplitude stiffness.
+
+    Parameters
+    ----------
+    structure : TestStructure, optional
+    force_at : str, optional
+        If given, the drive is a force in N on this mass (the table is fixed) instead of the
+        table displacement.
 
     Returns
     -------
@@ -191,6 +198,24 @@ def linear_system(structure: TestStructure | None = None):
     structure = structure or TestStructure()
     mf, cf, kf = _matrices(structure)
     null = np.hstack([np.zeros((5, 1)), np.eye(5)])
+    if force_at is not None:
+        if force_at not in SENSORS:
+            raise InputError(f"force_at {force_at!r}: expected one of {', '.join(SENSORS)}")
+        e = np.zeros(5)
+        e[SENSORS.index(force_at)] = 1.0
+        z = np.zeros(5)
+        return LinearSystem(
+            mass=null @ mf @ null.T,
+            damping=null @ cf @ null.T,
+            stiffness=null @ kf @ null.T,
+            nullspace=null,
+            drive_shape=np.zeros(6),
+            b0=-e,
+            b1=z,
+            b2=z.copy(),
+            sensor_map=null.copy(),
+            sensor_names=SENSORS,
+        )
     r = np.ones(6)
     return LinearSystem(
         mass=null @ mf @ null.T,
@@ -268,6 +293,20 @@ def drive_signal(
     return u * fade
 
 
+def _force_signal(level, duration_s, sample_rate_hz, seed, band_hz) -> np.ndarray:
+    """Band-limited random force (N) of rms ``level`` (flat spectrum), a 0.5 s cosine fade-in."""
+    n = int(round(duration_s * sample_rate_hz))
+    rng = np.random.default_rng(seed)
+    f = np.fft.rfftfreq(n, 1.0 / sample_rate_hz)
+    spec = np.zeros(f.size, complex)
+    band = (f >= band_hz[0]) & (f <= band_hz[1])
+    spec[band] = np.exp(2j * np.pi * rng.random(band.sum()))
+    x = np.fft.irfft(spec, n)
+    x *= level / np.sqrt(np.mean(x**2))
+    t = np.arange(n) / sample_rate_hz
+    return x * np.where(t < 0.5, 0.5 - 0.5 * np.cos(np.pi * np.minimum(t, 0.5) / 0.5), 1.0)
+
+
 def simulate_levels(
     joint: str = "friction",
     levels: Sequence[float] = (0.1, 0.3, 1.0, 3.0),
@@ -279,6 +318,7 @@ def simulate_levels(
     seed: int = 0,
     substeps: int = 4,
     band_hz: tuple[float, float] = (5.0, 120.0),
+    force_at: str | None = None,
 ) -> list[Recording]:
     """Simulate the test structure at several drive levels into recordings.
 
@@ -301,6 +341,10 @@ def simulate_levels(
         Sub-steps per sample of the local-nonlinear integrator.
     band_hz : (float, float)
         Band of the drive's flat acceleration spectrum in Hz (below the Nyquist frequency).
+    force_at : str, optional
+        Drive with a shaker force on this mass instead (table fixed): ``levels`` are then the
+        force rms in N (flat force spectrum in ``band_hz``) and the drive channel ``force`` (N,
+        role 'drive') sits at the mass's position.
 
     Returns
     -------
@@ -312,7 +356,7 @@ def simulate_levels(
     from ..physics.nonlinear import CubicStiffening, simulate_local_nonlinear
 
     structure, law = joint_law(joint, structure)
-    lin = linear_system(structure)
+    lin = linear_system(structure, force_at)
     gather = np.zeros((1, 6))
     gather[0, 2], gather[0, 3] = -1.0, 1.0  # delta = B1 - A2
     law = law if law is not None else CubicStiffening(0.0)
@@ -325,7 +369,10 @@ def simulate_levels(
         raise InputError(f"levels {levels!r}: expected positive accelerations in m/s^2")
     out = []
     for i, level in enumerate(levels):
-        u = drive_signal(level, duration_s, sample_rate_hz, seed + i, band_hz)
+        if force_at is None:
+            u = drive_signal(level, duration_s, sample_rate_hz, seed + i, band_hz)
+        else:
+            u = _force_signal(level, duration_s, sample_rate_hz, seed + i, band_hz)
         drive = Drive()
         drive.set_signal(u, sample_rate_hz)
         acc = simulate_local_nonlinear(lin, drive, gather, [law], substeps=substeps)
@@ -335,7 +382,11 @@ def simulate_levels(
             Channel(name, "acceleration", "m/s^2", "Z", _POSITIONS_M[name], sample_rate_hz, row)
             for name, row in zip(SENSORS, acc, strict=True)
         ]
-        chans.append(Channel("drive", "displacement", "m", "Z", None, sample_rate_hz, u, role="drive"))
+        if force_at is None:
+            chans.append(Channel("drive", "displacement", "m", "Z", None, sample_rate_hz, u, role="drive"))
+        else:
+            pos = _POSITIONS_M[force_at]
+            chans.append(Channel("force", "force", "N", "Z", pos, sample_rate_hz, u, role="drive"))
         out.append(
             Recording(
                 tuple(chans),
