@@ -42,6 +42,8 @@ from .rig_hypotheses import (
     AddedMassHypothesis,
     AffineHypothesis,
     Hypothesis,
+    LocalElementHypothesis,
+    NonlinearSystem,
     ModalDampingHypothesis,
     SensorGainHypothesis,
     log_bounds,
@@ -133,7 +135,7 @@ class _Evaluator:
     def simulate(self, lin, gains=None):
         from ..simulate import frf_linear
 
-        if self.exact:
+        if self.exact or isinstance(lin, NonlinearSystem):
             return self.simulate_exact(lin, gains)
         key = id(lin)
         if key in self._cache and self._cache[key][0] is lin:
@@ -157,6 +159,12 @@ class _Evaluator:
         key = ("exact", id(lin))
         if key in self._cache and self._cache[key][0] is lin:
             base = self._cache[key][1]
+        elif isinstance(lin, NonlinearSystem):
+            from ..physics.nonlinear import simulate_local_nonlinear
+
+            base = [simulate_local_nonlinear(lin.lin, r.drive, lin.gather, lin.laws, lin.substeps)[idx]
+                    for r, idx in zip(self.recs, self.idx, strict=True)]
+            self._cache = {key: (lin, base)}
         else:
             base = [simulate_linear(lin, r.drive)[idx] for r, idx in zip(self.recs, self.idx, strict=True)]
             self._cache = {key: (lin, base)}
@@ -500,6 +508,15 @@ def _diagnose_rig(
                     interface="piston_linkage",
                 )
             )
+        if level_dependent and want("bushing_stiffening") and ("bushing_stiffening", "bracket_left") not in done:
+            try:
+                say("linearising the bushing-stiffening hypothesis")
+                hyps.append(LocalElementHypothesis(
+                    "bushing_stiffening", "bracket_left", entry("bushing_stiffening"), build_current,
+                    {"cubic_stiffness_n_per_m3": 1e11}, _cubic_laws, component="bracket_left",
+                    sensors=tuple(s_ for s_ in sensor_names if s_.startswith("ASV")), interface="bracket_left"))
+            except InputError as exc:  # the model has no rubber bushing region
+                log.info("bushing_stiffening not applicable: %s", exc)
         for h in hyps:
             h.base_gains = gains_r
         say(f"round {round_no + 1}: screening {len(hyps)} candidates")
@@ -602,6 +619,15 @@ def _diagnose_rig(
             f"{fit['holdout_after']:.4f}"
         )
         # carry the finding into the model of the next round
+        if isinstance(h, LocalElementHypothesis):
+            # the later rounds' candidates are linear systems; after a nonlinear finding only check what is left
+            sims_tr, sims_ho, maps, significant = sims_tr1, sims_ho1, maps1, significant1
+            lin_r, gains_r = lin1, gains1
+            if significant.any():
+                unexplained.append(_unexplained(significant, channels, level_dependent,
+                                                "mismatch left after the nonlinear finding above (later rounds "
+                                                "after a nonlinear finding are not modelled)"))
+            break
         if h.physics == "sensor_gain":
             gains_r = gains1
             lin_r = lin1
@@ -646,6 +672,16 @@ def _diagnose_rig(
             }
     meta["wall_s"] = time.perf_counter() - t_start
     return Diagnosis(True, findings, unexplained, meta)
+
+
+def _cubic_laws(p, elements):
+    """Cubic stiffening laws with coefficient ``p[0]`` for every element of the hypothesis."""
+    from ..physics.nonlinear import CubicStiffening
+
+    return [CubicStiffening(float(p[0])) for _ in elements]
+
+
+SCREEN_GRID_NONLINEAR = {"bushing_stiffening": (1e11, 1e12, 1e13)}
 
 
 def _gains(h: Hypothesis, p, channels):
@@ -722,7 +758,7 @@ def _screen(h: Hypothesis, ev: _Evaluator, channels, r0: np.ndarray) -> float:
     parabola in the (log) parameter through the best point and its neighbours; candidates
     with several parameters get score 1 (always fitted).
     """
-    grid = SCREEN_GRID.get(h.physics)
+    grid = SCREEN_GRID.get(h.physics) or SCREEN_GRID_NONLINEAR.get(h.physics)
     if grid is None or len(h.names) != 1:
         return 1.0
     rss0 = float(r0 @ r0)

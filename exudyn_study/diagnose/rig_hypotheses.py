@@ -246,3 +246,48 @@ def to_x(h: Hypothesis, p):
     pos, _, _ = log_bounds(h)
     p = np.asarray(p, dtype=float)
     return np.where(pos, np.log(np.maximum(p, 1e-300)), p)
+
+
+@dataclass
+class NonlinearSystem:
+    """A linearised system plus local residual force elements (simulated in time, not by FRF)."""
+
+    lin: LinearSystem
+    gather: np.ndarray
+    laws: list
+    substeps: int = 4
+
+
+class LocalElementHypothesis(Hypothesis):
+    """A catalogue entry that adds local nonlinear elements (e.g. ``bushing_stiffening``).
+
+    The entry is applied once (its linear items do not depend on the fitted parameters);
+    the fitted parameters only change the force laws, built by ``make_laws(p)``.
+    """
+
+    def __init__(self, physics, location, entry, build: Callable, start: dict, make_laws: Callable, **where):
+        params = [entry.parameter(n) for n in start]
+        super().__init__(
+            physics,
+            location,
+            tuple(start),
+            tuple(p.unit for p in params),
+            np.array([p.lower for p in params]),
+            np.array([p.upper for p in params]),
+            np.array([float(v) for v in start.values()]),
+            **where,
+        )
+        from ..modal import linearize
+        from ..physics.nonlinear import gather_vectors
+
+        model = build()
+        entry.apply(model, location, **start)
+        model.assemble()
+        self.lin = linearize(model)
+        self.elements = list(model.local_nonlinearities)
+        self.gather = gather_vectors(model, self.elements)
+        self.make_laws = make_laws
+
+    def system(self, p):
+        """The linear tangent system with the element laws at ``p``."""
+        return NonlinearSystem(self.lin, self.gather, self.make_laws(np.asarray(p, dtype=float), self.elements))

@@ -222,9 +222,11 @@ _SINGLE = (
     (
         "bushing_stiffening",
         "bracket_left",
-        {"cubic_stiffness_n_per_m3": 5e11},
+        {"cubic_stiffness_n_per_m3": 5e13},
         3,
-        "The left mudguard bracket's rubber bushing stiffens with amplitude (Model 3).",
+        "The left mudguard bracket's rubber bushing stiffens with amplitude (Model 3): at the default level "
+        "the pad's relative motion is ~0.07 mm rms against a ~3.6e6 N/m tangent, so 5e13 N/m^3 stiffens it "
+        "by ~20 % at rms motion and by ~2x at the peaks.",
     ),
     (
         "modal_damping",
