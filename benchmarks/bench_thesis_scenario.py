@@ -73,10 +73,10 @@ def main(argv=None) -> int:
     f = [m["frequency_hz"] for m in modes]
     z = [m["damping_ratio"] for m in modes]
     rows = compare_table1(f, z)
-    print("Table 1                                 | identified      | error")
-    print("  f [Hz]  zeta [%]  description         |  f [Hz] zeta [%] |  df [%]  dzeta [%]")
+    print("Table 1                                   | identified       | error")
+    print("  f [Hz]  zeta [%]  description           |  f [Hz] zeta [%] |  df [%]  dzeta [%]")
     for r in rows:
-        head = f"  {r['table_hz']:6.2f}  {100 * r['table_zeta']:5.2f}    {r['description']:<20s}|"
+        head = f"  {r['table_hz']:6.2f}  {100 * r['table_zeta']:5.2f}    {r['description'][:22]:<22s}|"
         if r["index"] is None:
             print(head + "    (none)       |")
             continue
