@@ -57,7 +57,7 @@ def _free_port() -> int:
         ({"study": {"task": "sleep_cpu"}, "parameters": {"size": {"values": []}}},
          r"parameters\.size\.values = \[\]: empty list"),
         ({"study": {"task": "damping_sensitivity", "settings": {"model": "model-7"}}},
-         r"study\.settings\.model = 'model-7' is unknown; expected one of \['modal-table1'\]"),
+         r"study\.settings\.model = 'model-7' is unknown; expected one of \['modal-table1', 'rig-1'"),
         ({"study": {"task": "damping_sensitivity"}, "parameters": {"damping": {"values": ["adams", "step"]}}},
          r"parameters\.damping\.values = 'adams' is unknown"),
         ({"study": {"task": "no_such_task"}}, r"study\.task = 'no_such_task' is unknown; registered tasks"),

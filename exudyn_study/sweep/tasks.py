@@ -637,8 +637,6 @@ TASKS.register(
         (
             Parameter("model", "str", choices=MODELS, default="modal-table1",
                       doc="model path: the linear modal surrogate, or rig-1/2/3 against the virtual rig"),
-            Parameter("measured_scenario", "str", default="thesis",
-                      doc="virtual-rig scenario of the 'measured' recording (rig paths)"),
             Parameter("signal", "str", choices=_signal_names(), default="test"),
             Parameter("damping", "str", choices=DAMPING_CHOICES, default="adams-default"),
             Parameter("damping_scale", "float", "", (1e-3, 100.0), default=1.0),
@@ -651,6 +649,8 @@ TASKS.register(
             Parameter("sample_rate_hz", "float", "Hz", (128.0, 100_000.0), default=1000.0),
             Parameter("rms_m", "float", "m", (1e-9, 0.1), default=0.25e-3),
             Parameter("beta", "float", "", (0.1, 50.0), default=5.0),
+            Parameter("measured_scenario", "str", default="thesis",
+                      doc="virtual-rig scenario of the 'measured' recording (rig paths)"),
         ),
         plot_prefix="rpd.",
         plot_label="relative pseudo damage D_sim / D_meas",
