@@ -72,15 +72,17 @@ def main(argv=None) -> int:
     modes = json.loads((out / "modes.json").read_text())["modes"]
     f = [m["frequency_hz"] for m in modes]
     z = [m["damping_ratio"] for m in modes]
+    mpc = [m.get("mpc") or float("nan") for m in modes]
     rows = compare_table1(f, z)
-    print("Table 1                                   | identified       | error")
-    print("  f [Hz]  zeta [%]  description           |  f [Hz] zeta [%] |  df [%]  dzeta [%]")
+    print("Table 1                                   | identified            | error")
+    print("  f [Hz]  zeta [%]  description           |  f [Hz] zeta [%]  MPC |  df [%]  dzeta [%]")
     for r in rows:
         head = f"  {r['table_hz']:6.2f}  {100 * r['table_zeta']:5.2f}    {r['description'][:22]:<22s}|"
         if r["index"] is None:
-            print(head + "    (none)       |")
+            print(head + "    (none)            |")
             continue
-        print(head + f"  {r['frequency_hz']:6.2f}  {100 * r['damping_ratio']:5.2f}  | {100 * r['freq_error']:+6.1f}"
+        print(head + f"  {r['frequency_hz']:6.2f}  {100 * r['damping_ratio']:5.2f}  {mpc[r['index']]:4.2f} |"
+              f" {100 * r['freq_error']:+6.1f}"
               f"  {100 * r['zeta_error']:+7.1f}  {'ok' if r['within_10pct'] else ''}")
     extra = [f"{f[i]:.2f} Hz / {100 * z[i]:.2f} %" for i in rows[-1]["extra"]]
     n_f = sum(r["index"] is not None and abs(r["freq_error"]) <= 0.10 for r in rows)
