@@ -439,7 +439,8 @@ def _diagnose_rig(
         meta["wall_s"] = time.perf_counter() - t_start
         say("no significant mismatch: no missing physics found")
         return Diagnosis(False, [], [], meta)
-    level_dependent = _level_dependent(train_recs + hold_recs, np.flatnonzero(significant.any(axis=1)))
+    level_dependent = _level_dependent(train_recs + hold_recs, sims_tr + sims_ho,
+                                       np.flatnonzero(significant.any(axis=1)))
 
     findings, unexplained = [], []
     lin_r, gains_r, model_r, located = lin0, ones, model, []
@@ -681,7 +682,7 @@ def _cubic_laws(p, elements):
     return [CubicStiffening(float(p[0])) for _ in elements]
 
 
-SCREEN_GRID_NONLINEAR = {"bushing_stiffening": (1e11, 1e12, 1e13)}
+SCREEN_GRID_NONLINEAR = {"bushing_stiffening": (1e12, 1e13, 1e14, 1e15)}
 
 
 def _gains(h: Hypothesis, p, channels):
@@ -788,24 +789,51 @@ def _screen(h: Hypothesis, ev: _Evaluator, channels, r0: np.ndarray) -> float:
     return max(0.0, 1.0 - best / rss0)
 
 
-def _level_dependent(recs, rows) -> bool:
-    """Whether the measured drive->response FRFs at the mismatched channels change with drive level.
+def _level_dependent(recs, sims, rows) -> bool:
+    """Whether the mismatch at the channels ``rows`` grows with the drive level.
 
-    Pairs of recordings whose drive rms differs by more than 20 % are compared by their H1
-    estimates (0.24 Hz) at the channels ``rows`` in 5-55 Hz. A bin counts where the
-    difference exceeds 5 times its coherence-based standard error and ``min_rel`` of the
-    FRF; the mismatch is level dependent if that holds in more than 5 % of the bins. When
-    the two drives have the same spectral shape (one is a scaled copy of the other, e.g. the
-    thesis's test signal at 100 % and 50 %), the estimators' window bias is the same in both
-    and ``min_rel`` is 1 %; otherwise 5 %. A linear truth gives the same FRF at every level.
+    Pairs of recordings whose drives have the same spectral shape (one a scaled copy of the
+    other, e.g. the thesis's test signal at 100 % and 50 %) and whose rms differs by more
+    than 20 % are compared by the nominal model's relative error per channel
+    (:func:`~exudyn_study.diagnose.rig_compare.relative_errors`): a linear mismatch gives
+    the same relative error at every level (or a larger one at the lower level, where noise
+    weighs more); a stiffening or softening element gives an error that grows with level
+    (cubic: about as the level squared). Level dependent if the median ratio over the
+    channels exceeds 1.5. Without such a pair, the H1 estimates of the lowest and highest
+    level are compared (a bin counts where the difference exceeds 5 times its standard
+    error and 5 % of the FRF; level dependent above 5 % of the bins).
     """
     from scipy import signal as sps
 
-    if len(rows) == 0:
+    if len(rows) == 0 or len(recs) < 2:
         return False
     k0 = 1000
     est = []
     for r in recs:
+        u = r.drive.samples[k0:]
+        f, suu = sps.welch(u, 1000.0, nperseg=4096)
+        est.append(suu)
+    band = (f >= 5) & (f <= 55)
+    errors = [relative_errors(r, s_)[rows] for r, s_ in zip(recs, sims, strict=True)]
+    same_shape_pair = False
+    for a in range(len(recs)):
+        for b in range(len(recs)):
+            if recs[b].drive_rms_m < 1.2 * recs[a].drive_rms_m:
+                continue
+            shape = np.log(est[b][band] / est[a][band])
+            if float(np.median(np.abs(shape - np.median(shape)))) > 0.2:
+                continue
+            same_shape_pair = True
+            ratio = errors[b] / np.maximum(errors[a], 1e-12)
+            if float(np.median(ratio)) > 1.5:
+                return True
+    if same_shape_pair:
+        return False
+    lo, hi = min(recs, key=lambda r: r.drive_rms_m), max(recs, key=lambda r: r.drive_rms_m)
+    if hi.drive_rms_m < 1.2 * lo.drive_rms_m:
+        return False
+    out = []
+    for r in (lo, hi):
         u = r.drive.samples[k0:]
         y = r.measured[rows, k0:]
         f, suu = sps.welch(u, 1000.0, nperseg=4096)
@@ -814,22 +842,11 @@ def _level_dependent(recs, rows) -> bool:
         n_d = max(2, 2 * u.size // 4096 - 1)
         h = suy / suu[None, :]
         coh = np.abs(suy) ** 2 / (suu[None, :] * syy + 1e-300)
-        var = np.abs(h) ** 2 * (1 - coh) / (2 * n_d * np.maximum(coh, 1e-6))
-        est.append((f, suu, h, var))
-    band = (est[0][0] >= 5) & (est[0][0] <= 55)
-    for a in range(len(recs)):
-        for b in range(len(recs)):
-            if recs[b].drive_rms_m < 1.2 * recs[a].drive_rms_m:
-                continue
-            (_, pa, ha, va), (_, pb, hb, vb) = est[a], est[b]
-            shape = np.log(pb[band] / pa[band])
-            same_shape = float(np.median(np.abs(shape - np.median(shape)))) < 0.2
-            min_rel = 0.01 if same_shape else 0.05
-            z = np.abs(hb - ha)[:, band] / np.sqrt(va[:, band] + vb[:, band] + 1e-300)
-            rel = np.abs(hb - ha)[:, band] / np.maximum(np.abs(ha[:, band]), 1e-300)
-            if np.mean((z > 5) & (rel > min_rel)) > 0.05:
-                return True
-    return False
+        out.append((h, np.abs(h) ** 2 * (1 - coh) / (2 * n_d * np.maximum(coh, 1e-6))))
+    (h0, v0), (h1, v1) = out
+    z = np.abs(h1 - h0)[:, band] / np.sqrt(v0[:, band] + v1[:, band] + 1e-300)
+    rel = np.abs(h1 - h0)[:, band] / np.maximum(np.abs(h0[:, band]), 1e-300)
+    return bool(np.mean((z > 5) & (rel > 0.05)) > 0.05)
 
 
 def _damage(recs, before, after):
