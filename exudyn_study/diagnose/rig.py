@@ -246,6 +246,7 @@ def _sensor_component(name: str) -> str | None:
 def _modes(lin):
     import scipy.linalg as sla
 
+    lin = getattr(lin, "lin", lin)  # a NonlinearSystem: its linear tangent
     w2 = sla.eigh(lin.stiffness, lin.mass, eigvals_only=True)
     return np.sqrt(np.maximum(w2, 0.0)) / (2 * math.pi)
 
@@ -711,6 +712,7 @@ def _model_t(lin, freq, channels, sensor_names, gains=None):
     from ..simulate import frf_linear
 
     idx = [list(sensor_names).index(c) for c in channels]
+    lin = getattr(lin, "lin", lin)  # a NonlinearSystem: its linear tangent (the figure says so)
     w2 = (2 * np.pi * np.asarray(freq)) ** 2
     h = frf_linear(lin, freq)[idx, 0, :] / (-w2[None, :])
     return h if gains is None else h * gains[:, None]
@@ -923,6 +925,11 @@ def _explain(h: Hypothesis, p, std, lin0, lin1, located) -> str:
             f"The drive linkage is not rigid: {k:.3g} N/m with {c:.3g} N s/m and {m:.1f} kg at the pin put a "
             f"linkage resonance into the system that every frame sensor sees{extra} ({shifts})."
         )
+    if h.physics == "bushing_stiffening":
+        k3, s3 = v["cubic_stiffness_n_per_m3"]
+        return (f"The left mudguard bracket's rubber bushing stiffens with amplitude: a cubic term of "
+                f"{k3:.3g} +- {s3:.2g} N/m^3 across the pad (z and x) explains a mismatch at {where} that grows "
+                f"with the drive level (the linear model fits the low level and misses the high one).")
     if h.physics == "modal_damping":
         f, s = v["factor"]
         return (
