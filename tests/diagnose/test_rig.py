@@ -88,3 +88,18 @@ def test_bad_input(bodies):
     with pytest.raises(InputError, match=r"channels \['XXXZ'\] are not sensors of the model"):
         _diagnose(bodies, renamed, renamed_hold)
     assert np.isfinite(train.channel("ARFVZ").data).all()
+
+
+@pytest.mark.slow
+def test_bushing_stiffening_on_model_3_is_found_as_level_dependent(tmp_path):
+    """Real Model 3: the cubic pad hardening, trained on white noise and the test signal at 50 %, held out
+    the test signal at 100 %."""
+    from exudyn_study.diagnose.rig import diagnose_rig
+    from exudyn_study.virtual_rig import run_virtual_test
+
+    paths = run_virtual_test("bushing_stiffening", ["white-noise", "test-50", "test"], tmp_path, duration_s=60.0)
+    d = diagnose_rig(3, paths[:2], paths[2:])
+    f = d.findings[0]
+    assert f.physics == "bushing_stiffening" and f.level_dependent
+    assert f.parameters["cubic_stiffness_n_per_m3"]["value"] == pytest.approx(5e13, rel=0.15)
+    assert f.fit["holdout_after"] < 0.5 * f.fit["holdout_before"]
