@@ -13,11 +13,7 @@ plus ``beta``, ``C``, ``rate_hz`` and ``info`` (sources). Files are written atom
 from __future__ import annotations
 
 import argparse
-import os
-import tempfile
 from pathlib import Path
-
-from .errors import InputError
 
 __all__ = ["configure", "run"]
 
@@ -69,17 +65,9 @@ def configure(parser: argparse.ArgumentParser) -> None:
 
 
 def _write_text_atomic(text: str, path: Path) -> None:
-    directory = path.parent if str(path.parent) else Path(".")
-    if not directory.is_dir():
-        raise InputError(f"--json {str(path)!r}: directory {str(directory)!r} does not exist")
-    fd, tmp = tempfile.mkstemp(dir=directory, prefix=f".{path.name}.", suffix=".tmp")
-    try:
-        with os.fdopen(fd, "w", encoding="utf-8") as f:
-            f.write(text)
-        os.replace(tmp, path)
-    finally:
-        if os.path.exists(tmp):
-            os.unlink(tmp)
+    from .atomic import write_text_atomic
+
+    write_text_atomic(path, text, "--json")
 
 
 def run(args: argparse.Namespace) -> int:

@@ -46,7 +46,6 @@ import json
 import logging
 import math
 import os
-import tempfile
 import types
 import warnings
 from collections.abc import Iterable, Mapping, Sequence
@@ -587,6 +586,8 @@ def write_recording(recording: Recording, path: str | os.PathLike) -> Path:
     """
     if not isinstance(recording, Recording):
         raise InputError(f"write_recording: got {type(recording).__name__}; expected a Recording")
+    from .atomic import atomic_write
+
     path = Path(path)
     suffix = _suffix(path)
     directory = path.parent if str(path.parent) else Path(".")
@@ -598,16 +599,7 @@ def write_recording(recording: Recording, path: str | os.PathLike) -> Path:
     writer = _write_hdf5 if suffix in _HDF5_SUFFIXES else _write_uff
     if writer is _write_uff:
         _check_uff_writable(recording)  # before touching the disk
-    fd, tmp_name = tempfile.mkstemp(dir=directory, prefix=f".{path.name}.", suffix=f".tmp{suffix}")
-    os.close(fd)
-    tmp = Path(tmp_name)
-    try:
-        writer(recording, tmp)
-        os.replace(tmp, path)
-    finally:
-        if tmp.exists():
-            tmp.unlink()
-    return path
+    return atomic_write(path, lambda tmp: writer(recording, tmp), "recording file")
 
 
 # --- HDF5 ------------------------------------------------------------------------------

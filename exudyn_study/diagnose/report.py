@@ -18,7 +18,6 @@ from __future__ import annotations
 import html
 import json
 import os
-import tempfile
 from collections.abc import Mapping
 from pathlib import Path
 
@@ -37,16 +36,10 @@ def _figure(width: float, height: float):
 
 
 def _save(fig, path: Path) -> Path:
-    fd, tmp = tempfile.mkstemp(prefix=path.name + ".", suffix=".tmp", dir=path.parent)
-    os.close(fd)
-    try:
-        fig.savefig(tmp, dpi=110, bbox_inches="tight", format="png")
-        os.replace(tmp, path)
-    except BaseException:
-        if os.path.exists(tmp):
-            os.unlink(tmp)
-        raise
-    return path
+    from ..atomic import atomic_write
+
+    return atomic_write(path, lambda tmp: fig.savefig(tmp, dpi=110, bbox_inches="tight", format="png"),
+                        "figure")
 
 
 def _unit(data: Mapping) -> str:
@@ -371,14 +364,6 @@ def write_report(
         + "</pre></details>"
     )
     parts.append("</body></html>")
-    index = out / "index.html"
-    fd, tmp = tempfile.mkstemp(prefix="index.html.", suffix=".tmp", dir=out)
-    try:
-        with os.fdopen(fd, "w", encoding="utf-8") as fh:
-            fh.write("\n".join(parts))
-        os.replace(tmp, index)
-    except BaseException:
-        if os.path.exists(tmp):
-            os.unlink(tmp)
-        raise
-    return index
+    from ..atomic import write_text_atomic
+
+    return write_text_atomic(out / "index.html", "\n".join(parts), "report")

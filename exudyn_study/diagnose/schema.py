@@ -35,7 +35,6 @@ from __future__ import annotations
 import json
 import math
 import os
-import tempfile
 from collections.abc import Mapping, Sequence
 from dataclasses import dataclass, field
 from pathlib import Path
@@ -304,17 +303,9 @@ class Diagnosis:
         path = Path(path)
         if not path.parent.is_dir():
             raise InputError(f"diagnosis JSON {str(path)!r}: directory {str(path.parent)!r} does not exist")
-        text = self.to_json()
-        fd, tmp = tempfile.mkstemp(prefix=path.name + ".", suffix=".tmp", dir=path.parent)
-        try:
-            with os.fdopen(fd, "w", encoding="utf-8") as fh:
-                fh.write(text)
-            os.replace(tmp, path)
-        except BaseException:
-            if os.path.exists(tmp):
-                os.unlink(tmp)
-            raise
-        return path
+        from ..atomic import write_text_atomic
+
+        return write_text_atomic(path, self.to_json(), "diagnosis JSON")
 
 
 def read_json(path: str | os.PathLike) -> Diagnosis:

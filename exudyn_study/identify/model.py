@@ -30,7 +30,6 @@ from __future__ import annotations
 import json
 import math
 import os
-import tempfile
 from collections.abc import Mapping, Sequence
 from dataclasses import dataclass, field
 from pathlib import Path
@@ -288,17 +287,9 @@ def write_modes_json(model: ModalModel, path: str | os.PathLike) -> Path:
     path = Path(path)
     if not path.parent.is_dir():
         raise InputError(f"modes JSON {str(path)!r}: directory {str(path.parent)!r} does not exist")
-    text = model.to_json()
-    fd, tmp = tempfile.mkstemp(prefix=path.name + ".", suffix=".tmp", dir=path.parent)
-    try:
-        with os.fdopen(fd, "w", encoding="utf-8") as fh:
-            fh.write(text)
-        os.replace(tmp, path)
-    except BaseException:
-        if os.path.exists(tmp):
-            os.unlink(tmp)
-        raise
-    return path
+    from ..atomic import write_text_atomic
+
+    return write_text_atomic(path, model.to_json(), "modes JSON")
 
 
 def read_modes_json(path: str | os.PathLike) -> ModalModel:
