@@ -9,12 +9,16 @@
    physics found". Level dependence: the same comparison between the recordings' FRFs.
 3. **Name**: every candidate (catalogue entry at a location:
    :mod:`~exudyn_study.diagnose.rig_hypotheses`) is scored by how much of the training
-   residual its first-order change explains (one derivative each);
+   residual it explains at its best value on a coarse grid (candidates with several
+   parameters are always fitted); a nonlinear candidate (``bushing_stiffening``) only
+   when the mismatch grows with the drive level;
 4. **Model and fit**: the best candidates are fitted (bounded least squares on the
    training residual, log parameters), rejected if not identifiable (relative std > 30 %
-   or at a bound) or if they explain too little, and chosen by the Akaike information
-   criterion; the fitted model is checked again for remaining significant mismatch
-   ("unexplained").
+   or at a bound), if they explain too little (< 30 % of the error) or if the fitted model
+   still misses most of the response (relative error > 0.7: a fit that switches the
+   response off is no explanation), and chosen by the Akaike information criterion; up to
+   three rounds, each finding carried into the next round's model; what is left
+   significant is reported as unexplained.
 5. **Prove**: held-out error before and after per channel and relative pseudo damage
    at the z sensors before and after; a plain-language explanation.
 """
@@ -64,6 +68,9 @@ class RigDiagnosisSettings:
     screen_duration_s: float = 12.0  # seconds of the first training recording used for screening
     n_fit: int = 4  # candidates fitted in full after screening
     min_improvement: float = 0.3  # a finding must cut the training error by this share
+    # ... and leave less than this relative error: a fit that only switches the response off
+    # (error 1) is no explanation
+    max_error_after: float = 0.7
     max_findings: int = 3  # rounds of locate-name-fit
     max_relative_std: float = 0.3
     min_effect: float = 0.005
@@ -545,10 +552,20 @@ def _diagnose_rig(
                     "aic": _aic(rss, p.size, n_eff),
                     "identifiable": bool(np.all(rel_std < st.max_relative_std) and not at_bound),
                     "improvement": 1.0 - math.sqrt(rss / rss0),
+                    "error_after": math.sqrt(rss / len(train_recs)),
                     "score": float(scores[i]),
                     "nfev": nfev,
                 }
             )
+        for f in fitted:
+            if not f["identifiable"]:
+                f["rejected"] = "not identifiable"
+            elif f["improvement"] < st.min_improvement:
+                f["rejected"] = "explains too little"
+            elif f["error_after"] > st.max_error_after:
+                f["rejected"] = "the fitted model still misses most of the response"
+            else:
+                f["rejected"] = None
         meta["candidates"] += [
             {
                 "round": round_no + 1,
@@ -558,14 +575,13 @@ def _diagnose_rig(
                 "aic": round(f["aic"] - aic0, 1),
                 "improvement": round(f["improvement"], 4),
                 "identifiable": f["identifiable"],
-                "rejected": None
-                if f["identifiable"] and f["improvement"] >= st.min_improvement
-                else ("not identifiable" if not f["identifiable"] else "explains too little"),
+                "rejected": f["rejected"],
+                "training_error_after": round(f["error_after"], 4),
                 "parameters": dict(zip(f["h"].names, np.round(f["p"], 6).tolist(), strict=True)),
             }
             for f in fitted
         ]
-        ok = [f for f in fitted if f["identifiable"] and f["improvement"] >= st.min_improvement]
+        ok = [f for f in fitted if f["rejected"] is None]
         if not ok:
             unexplained.append(
                 _unexplained(
@@ -574,8 +590,7 @@ def _diagnose_rig(
                     level_dependent,
                     "no catalogue entry explains it: "
                     + "; ".join(
-                        f"{f['h'].label} improves {100 * f['improvement']:.0f} %"
-                        f"{'' if f['identifiable'] else ' (not identifiable)'}"
+                        f"{f['h'].label} improves {100 * f['improvement']:.0f} % ({f['rejected']})"
                         for f in fitted
                     ),
                 )
