@@ -23,6 +23,13 @@ def configure(parser: argparse.ArgumentParser) -> None:
     parser.add_argument("--mesh", default="coarse", help="mesh of the chassis body (default coarse)")
     parser.add_argument("--skip-fe", action="store_true", help="skip the FE/reduction step")
     parser.add_argument("--seed", type=int, default=1, help="seed of the synthetic test")
+    parser.add_argument(
+        "--virtual-rig",
+        action="store_true",
+        help="also play the virtual rig's 'thesis' scenario (white noise, test, test at 50 %%; "
+        "Model 3 bodies are reduced on the first run), identify its white-noise recording "
+        "and diagnose Model 3 against it",
+    )
 
 
 def run(args: argparse.Namespace) -> int:
@@ -40,11 +47,15 @@ def run(args: argparse.Namespace) -> int:
 
         data = flexible_body(BodySpec(joint_model="simple", mesh_size=args.mesh))
         body = data.body
-        print(f"[1/3] chassis flexible body (Model 1): {3 * body.n_nodes} DOF, {body.total_mass_kg:.1f} kg, "
-              f"{body.n_modes} flexible modes, {'from cache' if data.from_cache else 'built'} "
-              f"in {data.timings_s['total']:.1f} s")
-        print("      mounted frequencies [Hz]:",
-              " ".join(f"{f:.1f}" for f in body.fixed_interface_frequencies_hz[:10]))
+        print(
+            f"[1/3] chassis flexible body (Model 1): {3 * body.n_nodes} DOF, {body.total_mass_kg:.1f} kg, "
+            f"{body.n_modes} flexible modes, {'from cache' if data.from_cache else 'built'} "
+            f"in {data.timings_s['total']:.1f} s"
+        )
+        print(
+            "      mounted frequencies [Hz]:",
+            " ".join(f"{f:.1f}" for f in body.fixed_interface_frequencies_hz[:10]),
+        )
         summary["body"] = {
             "dof": 3 * body.n_nodes,
             "mass_kg": body.total_mass_kg,
@@ -53,23 +64,80 @@ def run(args: argparse.Namespace) -> int:
         }
     system = table1_system(seed=args.seed)
     reference, responses = simulate(system, 80.0, seed=args.seed)
-    recording = to_recording(system, reference, responses,
-                             metadata={"source": "synthetic Table-1 structure", "seed": args.seed})
+    recording = to_recording(
+        system, reference, responses, metadata={"source": "synthetic Table-1 structure", "seed": args.seed}
+    )
     rec_path = out / "test_white_noise.h5"
     write_recording(recording, rec_path)
-    print(f"[2/3] synthetic white-noise test written to {rec_path} "
-          f"({len(recording.channels)} channels, {recording.duration_s:.0f} s)")
-    result = identify_recording(read_recording(rec_path), "ARFVZ", band_hz=(3.0, 50.0),
-                                resolution_hz=0.2, estimator="Hv")
+    print(
+        f"[2/3] synthetic white-noise test written to {rec_path} "
+        f"({len(recording.channels)} channels, {recording.duration_s:.0f} s)"
+    )
+    result = identify_recording(
+        read_recording(rec_path), "ARFVZ", band_hz=(3.0, 50.0), resolution_hz=0.2, estimator="Hv"
+    )
     write_modes_json(result.model, out / "modes.json")
     figures = plot_all(result, out / "figures")
     print(f"[3/3] identified {len(result.model.modes)} modes (Hv, 0.2 Hz) -> {out / 'modes.json'}")
     print("      mode  f [Hz]   zeta [%]   true f [Hz]  true zeta [%]")
     for i, mode in enumerate(result.model.modes):
-        j = min(range(len(system.frequency_hz)), key=lambda k: abs(system.frequency_hz[k] - mode.frequency_hz))
-        print(f"      {i + 1:>4}  {mode.frequency_hz:7.3f}  {100 * mode.damping_ratio:8.3f}   "
-              f"{system.frequency_hz[j]:10.3f}  {100 * system.damping_ratio[j]:12.3f}")
+        j = min(
+            range(len(system.frequency_hz)), key=lambda k: abs(system.frequency_hz[k] - mode.frequency_hz)
+        )
+        print(
+            f"      {i + 1:>4}  {mode.frequency_hz:7.3f}  {100 * mode.damping_ratio:8.3f}   "
+            f"{system.frequency_hz[j]:10.3f}  {100 * system.damping_ratio[j]:12.3f}"
+        )
     print(f"      figures: {', '.join(str(p) for p in figures)}")
     summary["identified_modes"] = len(result.model.modes)
-    (out / "demo_summary.json").write_text(json.dumps(summary, indent=1))
+    if args.virtual_rig:
+        summary["virtual_rig"] = _virtual_rig(out / "virtual_rig")
+    from ..atomic import write_text_atomic
+
+    write_text_atomic(out / "demo_summary.json", json.dumps(summary, indent=1), "demo summary")
     return 0
+
+
+def _virtual_rig(out: Path) -> dict:
+    """Play the thesis scenario on the virtual rig, identify its white-noise recording, diagnose Model 3."""
+    import time
+
+    from ..diagnose.report import write_report
+    from ..diagnose.rig import diagnose_rig
+    from ..identify import identify_recording, write_modes_json
+    from ..identify.plots import plot_all
+    from ..recording import read_recording
+    from ..virtual_rig import THESIS_TABLE1, run_virtual_test
+
+    out.mkdir(parents=True, exist_ok=True)
+    t0 = time.perf_counter()
+    paths = run_virtual_test("thesis", ["white-noise", "test", "test-50"], out)
+    print(
+        f"[4/5] virtual rig, scenario 'thesis': {', '.join(p.name for p in paths)} in "
+        f"{time.perf_counter() - t0:.0f} s (the truth is in thesis_truth.json; nothing else reads it)"
+    )
+    res = identify_recording(
+        read_recording(paths[0]), ["ARFVZ", "ARFHZ"], band_hz=(3.0, 50.0), resolution_hz=0.2, estimator="Hv"
+    )
+    write_modes_json(res.model, out / "thesis_modes.json")
+    plot_all(res, out / "figures")
+    print("      EMA of the white-noise recording vs thesis Table 1:")
+    for mode in res.model.modes:
+        f_t, z_t, text = min(THESIS_TABLE1, key=lambda row: abs(row[0] - mode.frequency_hz))
+        print(
+            f"      {mode.frequency_hz:7.2f} Hz {100 * mode.damping_ratio:5.2f} %   Table 1: {f_t:6.2f} Hz "
+            f"{100 * z_t:5.2f} % ({text})"
+        )
+    figures: dict = {}
+    diagnosis = diagnose_rig(3, [paths[0], paths[2]], [paths[1]], damping="table6", figures=figures)
+    diagnosis.write_json(out / "diagnosis.json")
+    write_report(diagnosis, out / "diagnosis_report", figures)
+    print(
+        f"[5/5] diagnosis of Model 3 (Table 6 damping) against the recordings: {diagnosis.summary} -> "
+        f"{out / 'diagnosis_report' / 'index.html'}"
+    )
+    return {
+        "recordings": [p.name for p in paths],
+        "identified_modes": len(res.model.modes),
+        "diagnosis": diagnosis.summary,
+    }
