@@ -4,10 +4,13 @@
    orthogonalised (cached after the first run).
 2. A random base-excitation test of a structure with the thesis's Table-1 modes,
    measured at the Appendix-A sensor positions (80 s, 1000 Hz, 2 % noise, seeded),
-   written as a native HDF5 recording (the virtual test rig of issue 7 will replace this
-   synthetic structure with the rig model plus the physics it leaves out).
+   written as a native HDF5 recording.
 3. Automatic identification (Hv, 0.2 Hz, PolyMAX, LSFD) of that recording: modes JSON,
    stabilisation diagram, FRF fit, AutoMAC and mode-shape figures.
+4. With ``--virtual-rig``: the virtual rig's ``thesis`` scenario (Model 3 plus the physics
+   it leaves out, through the servo and acquisition chain) for the three signals, EMA of
+   its white-noise recording against thesis Table 1, and the diagnosis of Model 3 against
+   the recordings (JSON and HTML report).
 """
 
 from __future__ import annotations
