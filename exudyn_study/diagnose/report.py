@@ -199,6 +199,11 @@ def _pseudo_damage(data: Mapping, path: Path) -> Path | None:
             width,
             label=names[k],
         )
+    values = np.array([pd[c].get(k, np.nan) for c in chans for k in kinds], dtype=float)
+    values = values[np.isfinite(values) & (values > 0)]
+    if values.size and values.max() / values.min() > 100:
+        ax.set_yscale("log")  # ratios spanning decades: a linear axis hides all but the largest
+    ax.axhline(1.0, color="k", lw=0.8, ls=":")
     ax.set_xticks(x)
     ax.set_xticklabels(chans, rotation=45, ha="right", fontsize=7)
     ax.set_ylabel("relative pseudo damage (-)")
