@@ -86,21 +86,18 @@ class Hypothesis:
         return f"{self.physics}@{self.location}"
 
 
+def _entry_fields(entry, start: dict):
+    """(names, units, lower, upper, start) of a catalogue entry's parameters named in ``start``."""
+    params = [entry.parameter(n) for n in start]
+    return (tuple(start), tuple(p.unit for p in params), np.array([p.lower for p in params]),
+            np.array([p.upper for p in params]), np.array([float(v) for v in start.values()]))
+
+
 class AffineHypothesis(Hypothesis):
     """Entry whose parameters enter the unprojected matrices linearly (see module docstring)."""
 
     def __init__(self, physics, location, entry, build: Callable, start: dict, steps: dict, **where):
-        params = [entry.parameter(n) for n in start]
-        super().__init__(
-            physics,
-            location,
-            tuple(start),
-            tuple(p.unit for p in params),
-            np.array([p.lower for p in params]),
-            np.array([p.upper for p in params]),
-            np.array([float(v) for v in start.values()]),
-            **where,
-        )
+        super().__init__(physics, location, *_entry_fields(entry, start), **where)
         from ..modal import linearize
 
         def lin_at(values):
@@ -266,17 +263,7 @@ class LocalElementHypothesis(Hypothesis):
     """
 
     def __init__(self, physics, location, entry, build: Callable, start: dict, make_laws: Callable, **where):
-        params = [entry.parameter(n) for n in start]
-        super().__init__(
-            physics,
-            location,
-            tuple(start),
-            tuple(p.unit for p in params),
-            np.array([p.lower for p in params]),
-            np.array([p.upper for p in params]),
-            np.array([float(v) for v in start.values()]),
-            **where,
-        )
+        super().__init__(physics, location, *_entry_fields(entry, start), **where)
         from ..modal import linearize
         from ..physics.nonlinear import gather_vectors
 
@@ -290,4 +277,5 @@ class LocalElementHypothesis(Hypothesis):
 
     def system(self, p):
         """The linear tangent system with the element laws at ``p``."""
-        return NonlinearSystem(self.lin, self.gather, self.make_laws(np.asarray(p, dtype=float), self.elements))
+        laws = self.make_laws(np.asarray(p, dtype=float), self.elements)
+        return NonlinearSystem(self.lin, self.gather, laws)
