@@ -1,10 +1,11 @@
 """Blind benchmark of the rig diagnosis (issue #8): random virtual-rig scenarios, the diagnosis sees only files.
 
 For each scenario (:func:`exudyn_study.virtual_rig.random_scenario`: effect, location,
-parameter values and seed drawn; plus scenarios with no effect) the virtual rig writes a
-white-noise recording (training) and a test-signal recording (held out) and the truth file
-into a scratch directory; :func:`exudyn_study.diagnose.rig.diagnose_rig` gets the two
-recording paths and the nominal model (Model 1, Adams default damping), never the truth.
+parameter values and seed drawn; plus scenarios with no effect) the virtual rig writes
+recordings of white noise, the test signal at 50 % and at 100 % and the truth file into a
+scratch directory; :func:`exudyn_study.diagnose.rig.diagnose_rig` gets the recording
+paths (white noise and the test signal at 50 % to train, the test signal held out) and the
+nominal model (the variant the truth started from, Adams default damping), never the truth.
 Only the scorer reads the truth. Scores:
 
 - physics named correctly (no-effect scenarios: no finding at all);
@@ -73,6 +74,8 @@ def score(truth: dict, diagnosis, model) -> dict:
         out["location_ok"] = loc["sensors"] == [aug["location"]]
     elif aug["physics"] == "modal_damping":
         out["location_ok"] = loc["component"] == aug["location"]
+    elif aug["physics"] == "bushing_stiffening":
+        out["location_ok"] = loc["component"] == "bracket_left"
     else:
         out["location_ok"] = loc.get("interface") == "piston_linkage"
     errs = {}
@@ -104,19 +107,23 @@ def main(argv=None) -> int:
     out_dir.mkdir(parents=True, exist_ok=True)
     scenarios = [random_scenario(i) for i in range(args.start, args.start + args.n)]
     scenarios += [random_scenario(100 + i, effect="none") for i in range(args.n_none)]
-    ref_model = build_model(1, exudyn_mesh="used")
+    ref_models = {}
     rows = []
     results_path = out_dir / "results.json"
     for sc in scenarios:
         with tempfile.TemporaryDirectory(prefix=f"{sc.name}_") as tmp:
             t0 = time.perf_counter()
-            paths = run_virtual_test(sc, ["white-noise", "test"], tmp, duration_s=args.duration)
+            paths = run_virtual_test(sc, ["white-noise", "test-50", "test"], tmp, duration_s=args.duration)
             t_rec = time.perf_counter() - t0
             t0 = time.perf_counter()
-            d = diagnose_rig(1, [paths[0]], [paths[1]])  # the diagnosis sees the two files only
+            # the diagnosis sees the files only: white noise and the test signal at 50 % to train,
+            # the test signal at 100 % held out; the nominal model is the variant the truth started from
+            d = diagnose_rig(sc.variant, paths[:2], paths[2:])
             t_diag = time.perf_counter() - t0
             truth = json.loads((Path(tmp) / truth_name(sc.name)).read_text())
-        row = score(truth, d, ref_model)
+        if sc.variant not in ref_models:
+            ref_models[sc.variant] = build_model(sc.variant, exudyn_mesh="used")
+        row = score(truth, d, ref_models[sc.variant])
         row.update(
             scenario=sc.name,
             truth=truth["augmentations"],

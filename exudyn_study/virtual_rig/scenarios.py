@@ -255,6 +255,7 @@ BLIND_EFFECTS = {
     "drive_linkage_compliance": (1, (None,)),
     "modal_damping": (1, ("chassis",)),
     "sensor_gain": (1, ("ARFVZ", "ARFMZ", "ARHBZ", "ATVBZ", "ASHZ")),
+    "bushing_stiffening": (3, ("bracket_left",)),
 }
 
 
@@ -316,6 +317,7 @@ _BLIND_RANGES = {
     ("drive_linkage_compliance", "mass_kg"): (10.0, 40.0),
     ("modal_damping", "factor"): (1.4, 3.0),
     ("sensor_gain", "gain"): (1.08, 1.4),
+    ("bushing_stiffening", "cubic_stiffness_n_per_m3"): (2e13, 2e14),
 }
 #: parameters set, not drawn: modal damping scales the body modes below 200 Hz (the ones that
 #: shape the response in the drive band; Adams default damping is 100 % above 1 kHz)
