@@ -76,7 +76,6 @@ and abuse. Sound and Vibration 37(8).
 
 from __future__ import annotations
 
-import contextlib
 import json
 import logging
 import math
@@ -91,6 +90,7 @@ import numpy as np
 import scipy.linalg as sla
 from scipy.optimize import least_squares, linear_sum_assignment
 
+from .blas import single_threaded_blas as _single_threaded_blas
 from .damping import MAX_RATIO, validate_ratios
 from .errors import InputError, StudyError
 from .identify.mac import mac
@@ -127,17 +127,6 @@ _RIGID_HZ = 1e-3
 _INFEASIBLE = 1e6
 
 
-def _single_threaded_blas():
-    """Limit BLAS/LAPACK to one thread for the small dense eigen-solves.
-
-    On a loaded 2-core machine OpenBLAS's threads made one 124 x 124 ``eig`` take 2.5 s
-    instead of 0.02 s (measured). Uses ``threadpoolctl`` when installed, else does nothing.
-    """
-    try:
-        from threadpoolctl import threadpool_limits
-    except ImportError:  # optional: without it the eigen-solves may be slower under load
-        return contextlib.nullcontext()
-    return threadpool_limits(limits=1, user_api="blas")
 
 
 # ---------------------------------------------------------------------------- the seam

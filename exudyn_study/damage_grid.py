@@ -46,7 +46,6 @@ and every cell is a few seconds.
 
 from __future__ import annotations
 
-import contextlib
 import csv
 import json
 import logging
@@ -61,6 +60,7 @@ from pathlib import Path
 
 import numpy as np
 
+from .blas import single_threaded_blas  # re-exported: the CLI and benchmark import it from here
 from .drive_iteration import DriveFRF, DriveIterationResult, iterate_drive, target_from_recording
 from .errors import InputError
 from .fatigue import DEFAULT_BETA, RelativeDamage, relative_pseudo_damage
@@ -101,18 +101,6 @@ _CAL_FREQ_RTOL = 0.01  # a calibration belongs to the same mesh: mode frequencie
 _SUGGESTED_CUTOFF_HZ = 500.0  # calibrate_cli's default: Table 1 reachable on Models 1/2
 
 
-def single_threaded_blas():
-    """Limit BLAS/LAPACK to one thread (``threadpoolctl``; a no-op without it).
-
-    The grid's dense algebra is small (state matrices of 100-200): on the loaded 2-core
-    machine one 124 x 124 ``eig`` took 1.5-2.4 s with OpenBLAS's 2 threads and 0.02-0.04 s
-    with one (measured; :mod:`exudyn_study.calibrate` found the same).
-    """
-    try:
-        from threadpoolctl import threadpool_limits
-    except ImportError:  # optional
-        return contextlib.nullcontext()
-    return threadpool_limits(limits=1, user_api="blas")
 
 
 # ---------------------------------------------------------------------------------------

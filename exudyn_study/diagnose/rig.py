@@ -32,6 +32,7 @@ from collections.abc import Callable, Sequence
 
 import numpy as np
 
+from ..blas import one_blas_thread
 from ..errors import InputError
 from .rig_compare import (
     BANDS_HZ,
@@ -47,8 +48,8 @@ from .rig_hypotheses import (
     AffineHypothesis,
     Hypothesis,
     LocalElementHypothesis,
-    NonlinearSystem,
     ModalDampingHypothesis,
+    NonlinearSystem,
     SensorGainHypothesis,
     log_bounds,
     to_params,
@@ -106,11 +107,12 @@ class _Evaluator:
     """Simulate a system against prepared recordings; residual vector and errors.
 
     ``exact=True``: :func:`~exudyn_study.simulate.simulate_linear` (fits, errors, significance).
-    Otherwise (screening) the response from rest is the linear convolution of the drive with the model's impulse
-    response, computed as ``irfft(H(f) U(f))`` with the drive zero-padded by
+    Otherwise (screening) the response from rest is the linear convolution of the drive
+    with the model's impulse response, computed as ``irfft(H(f) U(f))`` with the drive zero-padded by
     ``pad_s`` (longer than the slowest mode's decay) after a 1 s fade from its last value
     to zero (by causality the extension does not change the response within the record;
-    it only keeps the padded drive band-limited). The recorded drive is band-limited to 102.4 Hz (204.8 Hz channel), so
+    it only keeps the padded drive band-limited). The recorded drive is band-limited to
+    102.4 Hz (204.8 Hz channel), so
     ``H`` is evaluated only up to :data:`F_MAX_HZ`: about 10x cheaper than the exact
     discretisation (:func:`~exudyn_study.simulate.simulate_linear`), which it matches to
     the drive's band limit, except where slow or undamped rig modes (< 3 Hz) wrap around:
@@ -160,7 +162,7 @@ class _Evaluator:
         return [b * gains[:, None] for b in base]
 
     def simulate_exact(self, lin, gains=None):
-        """The exact discretisation (:func:`~exudyn_study.simulate.simulate_linear`): fits and significance."""
+        """Simulate by exact discretisation (:func:`~exudyn_study.simulate.simulate_linear`)."""
         from ..simulate import simulate_linear
 
         key = ("exact", id(lin))
@@ -169,8 +171,10 @@ class _Evaluator:
         elif isinstance(lin, NonlinearSystem):
             from ..physics.nonlinear import simulate_local_nonlinear
 
-            base = [simulate_local_nonlinear(lin.lin, r.drive, lin.gather, lin.laws, lin.substeps)[idx]
-                    for r, idx in zip(self.recs, self.idx, strict=True)]
+            base = [
+                simulate_local_nonlinear(lin.lin, r.drive, lin.gather, lin.laws, lin.substeps)[idx]
+                for r, idx in zip(self.recs, self.idx, strict=True)
+            ]
             self._cache = {key: (lin, base)}
         else:
             base = [simulate_linear(lin, r.drive)[idx] for r, idx in zip(self.recs, self.idx, strict=True)]
@@ -258,6 +262,7 @@ def _modes(lin):
     return np.sqrt(np.maximum(w2, 0.0)) / (2 * math.pi)
 
 
+@one_blas_thread
 def diagnose_rig(
     variant: int,
     train: Sequence,
@@ -271,46 +276,11 @@ def diagnose_rig(
     cache_dir=None,
     figures: dict | None = None,
 ) -> Diagnosis:
-    """Diagnose the mismatch between model ``variant`` and the recordings (see :func:`_diagnose_rig`).
-
-    ``figures``: a dict filled with the arrays of the report's figures
-    (:func:`exudyn_study.diagnose.report.write_report`).
-
-    Runs with one BLAS thread: the work is thousands of small (~100x100) eigen/solve
-    problems, which multi-threaded BLAS makes several times slower on a shared machine.
-    """
-    from threadpoolctl import threadpool_limits
-
-    with threadpool_limits(1):
-        return _diagnose_rig(
-            variant,
-            train,
-            holdout,
-            damping,
-            progress,
-            bodies,
-            sensors,
-            candidates,
-            settings,
-            cache_dir,
-            figures,
-        )
-
-
-def _diagnose_rig(
-    variant: int,
-    train: Sequence,
-    holdout: Sequence,
-    damping="adams-default",
-    progress: Callable | None = None,
-    bodies=None,
-    sensors=None,
-    candidates: Sequence[str] | None = None,
-    settings: RigDiagnosisSettings | None = None,
-    cache_dir=None,
-    figures=None,
-) -> Diagnosis:
     """Diagnose the mismatch between model ``variant`` and the recordings.
+
+    Runs with one BLAS thread (:func:`~exudyn_study.blas.one_blas_thread`): the work is
+    thousands of small (~100x100) eigen/solve problems, which multi-threaded BLAS makes
+    several times slower on a shared machine.
 
     Parameters
     ----------
@@ -327,6 +297,11 @@ def _diagnose_rig(
     candidates : sequence of str, optional
         Catalogue entries to consider (default all the rig path can fit).
     settings : RigDiagnosisSettings, optional
+    cache_dir : path, optional
+        Flexible-body cache.
+    figures : dict, optional
+        Filled with the arrays of the report's figures
+        (:func:`exudyn_study.diagnose.report.write_report`).
 
     Returns
     -------
@@ -447,8 +422,9 @@ def _diagnose_rig(
         meta["wall_s"] = time.perf_counter() - t_start
         say("no significant mismatch: no missing physics found")
         return Diagnosis(False, [], [], meta)
-    level_dependent = _level_dependent(train_recs + hold_recs, sims_tr + sims_ho,
-                                       np.flatnonzero(significant.any(axis=1)))
+    level_dependent = _level_dependent(
+        train_recs + hold_recs, sims_tr + sims_ho, np.flatnonzero(significant.any(axis=1))
+    )
 
     findings, unexplained = [], []
     lin_r, gains_r, model_r, located = lin0, ones, model, []
@@ -517,13 +493,26 @@ def _diagnose_rig(
                     interface="piston_linkage",
                 )
             )
-        if level_dependent and want("bushing_stiffening") and ("bushing_stiffening", "bracket_left") not in done:
+        if (
+            level_dependent
+            and want("bushing_stiffening")
+            and ("bushing_stiffening", "bracket_left") not in done
+        ):
             try:
                 say("linearising the bushing-stiffening hypothesis")
-                hyps.append(LocalElementHypothesis(
-                    "bushing_stiffening", "bracket_left", entry("bushing_stiffening"), build_current,
-                    {"cubic_stiffness_n_per_m3": 1e11}, _cubic_laws, component="bracket_left",
-                    sensors=tuple(s_ for s_ in sensor_names if s_.startswith("ASV")), interface="bracket_left"))
+                hyps.append(
+                    LocalElementHypothesis(
+                        "bushing_stiffening",
+                        "bracket_left",
+                        entry("bushing_stiffening"),
+                        build_current,
+                        {"cubic_stiffness_n_per_m3": 1e11},
+                        _cubic_laws,
+                        component="bracket_left",
+                        sensors=tuple(s_ for s_ in sensor_names if s_.startswith("ASV")),
+                        interface="bracket_left",
+                    )
+                )
             except InputError as exc:  # the model has no rubber bushing region
                 log.info("bushing_stiffening not applicable: %s", exc)
         for h in hyps:
@@ -637,13 +626,19 @@ def _diagnose_rig(
         )
         # carry the finding into the model of the next round
         if isinstance(h, LocalElementHypothesis):
-            # the later rounds' candidates are linear systems; after a nonlinear finding only check what is left
+            # later rounds add linear candidates only: after a nonlinear finding, check what is left
             sims_tr, sims_ho, maps, significant = sims_tr1, sims_ho1, maps1, significant1
             lin_r, gains_r = lin1, gains1
             if significant.any():
-                unexplained.append(_unexplained(significant, channels, level_dependent,
-                                                "mismatch left after the nonlinear finding above (later rounds "
-                                                "after a nonlinear finding are not modelled)"))
+                unexplained.append(
+                    _unexplained(
+                        significant,
+                        channels,
+                        level_dependent,
+                        "mismatch left after the nonlinear finding above (later rounds "
+                        "after a nonlinear finding are not modelled)",
+                    )
+                )
             break
         if h.physics == "sensor_gain":
             gains_r = gains1
@@ -702,7 +697,7 @@ SCREEN_GRID_NONLINEAR = {"bushing_stiffening": (1e12, 1e13, 1e14, 1e15)}
 
 
 def _gains(h: Hypothesis, p, channels):
-    """The candidate's output gains times those already found (None: all one)."""
+    """Return the candidate's output gains times those already found (None: all one)."""
     base = getattr(h, "base_gains", None)
     g = h.gains(p, channels)
     if g is None:
@@ -942,9 +937,11 @@ def _explain(h: Hypothesis, p, std, lin0, lin1, located) -> str:
         )
     if h.physics == "bushing_stiffening":
         k3, s3 = v["cubic_stiffness_n_per_m3"]
-        return (f"The left mudguard bracket's rubber bushing stiffens with amplitude: a cubic term of "
-                f"{k3:.3g} +- {s3:.2g} N/m^3 across the pad (z and x) explains a mismatch at {where} that grows "
-                f"with the drive level (the linear model fits the low level and misses the high one).")
+        return (
+            f"The left mudguard bracket's rubber bushing stiffens with amplitude: a cubic term of "
+            f"{k3:.3g} +- {s3:.2g} N/m^3 across the pad (z and x) explains a mismatch at {where} that grows "
+            f"with the drive level (the linear model fits the low level and misses the high one)."
+        )
     if h.physics == "modal_damping":
         f, s = v["factor"]
         return (
