@@ -284,6 +284,23 @@ def _simulation_settings(settings, duration: float):
     return ss
 
 
+def _checked_stats(out: np.ndarray, settings, mbs, wall: float, cpu: float, duration: float,
+                   n_steps: int) -> dict:
+    """Raise SimulationError if ``out`` diverged; else the run's timing and Newton statistics."""
+    bad = ~np.isfinite(out) | (np.abs(out) > settings.divergence_limit)
+    if bad.any():
+        k = int(np.flatnonzero(bad.any(axis=0))[0])
+        raise SimulationError(
+            f"the simulation diverged at t = {k / OUTPUT_RATE_HZ:.4f} s (sensor accelerations non-finite or above "
+            f"{settings.divergence_limit:g} m/s^2); try a smaller step")
+    stats = {"wall_s": wall, "cpu_s": cpu, "real_time_factor": duration / wall if wall > 0 else float("inf"),
+             "cpu_real_time_factor": duration / cpu if cpu > 0 else float("inf"), "steps": n_steps}
+    solver = mbs.sys.get("dynamicSolver")
+    if solver is not None:
+        stats.update(newton_iterations=int(solver.it.newtonStepsCount), jacobians=int(solver.it.newtonJacobiCount))
+    return stats
+
+
 def simulate_exudyn(model, drive_samples: np.ndarray, settings: IntegratorSettings = IntegratorSettings(),
                     progress: bool = False) -> tuple[np.ndarray, dict]:
     """Integrate the model in Exudyn; sensor accelerations at 1000 Hz, shape (n_sensors, N).
@@ -360,19 +377,7 @@ def simulate_exudyn(model, drive_samples: np.ndarray, settings: IntegratorSettin
             raise SimulationError(
                 f"sensor {name}: {data.shape[0]} samples stored, expected {drive_samples.size}")
         out[i] = data[: drive_samples.size, 1:4] @ att.direction
-    bad = ~np.isfinite(out) | (np.abs(out) > settings.divergence_limit)
-    if bad.any():
-        k = int(np.flatnonzero(bad.any(axis=0))[0])
-        raise SimulationError(
-            f"the simulation diverged at t = {k / OUTPUT_RATE_HZ:.4f} s (sensor accelerations non-finite or above "
-            f"{settings.divergence_limit:g} m/s^2); try a smaller step")
-    solver = mbs.sys.get("dynamicSolver")
-    stats = {"wall_s": wall, "cpu_s": cpu, "real_time_factor": duration / wall if wall > 0 else float("inf"),
-             "cpu_real_time_factor": duration / cpu if cpu > 0 else float("inf"), "steps": n_steps}
-    if solver is not None:
-        it = solver.it
-        stats.update(newton_iterations=int(it.newtonStepsCount), jacobians=int(it.newtonJacobiCount))
-    return out, stats
+    return out, _checked_stats(out, settings, mbs, wall, cpu, duration, n_steps)
 
 
 #: default step of the reduced Exudyn path (see :func:`simulate_exudyn_reduced`)
@@ -463,18 +468,7 @@ def simulate_exudyn_reduced(lin, drive, settings: IntegratorSettings = Integrato
         raise SimulationError(f"{data.shape[0]} samples stored, expected {n_samples}")
     t = np.arange(n_samples) / OUTPUT_RATE_HZ
     out = lin.sensor_output @ data[:n_samples, 1:].T + np.outer(lin.sensor_drive, drive.evaluate(t, 2))
-    bad = ~np.isfinite(out) | (np.abs(out) > settings.divergence_limit)
-    if bad.any():
-        k = int(np.flatnonzero(bad.any(axis=0))[0])
-        raise SimulationError(
-            f"the simulation diverged at t = {k / OUTPUT_RATE_HZ:.4f} s (sensor accelerations non-finite or above "
-            f"{settings.divergence_limit:g} m/s^2); try a smaller step")
-    stats = {"wall_s": wall, "cpu_s": cpu, "real_time_factor": duration / wall if wall > 0 else float("inf"),
-             "cpu_real_time_factor": duration / cpu if cpu > 0 else float("inf"), "steps": n_steps}
-    solver = mbs.sys.get("dynamicSolver")
-    if solver is not None:
-        stats.update(newton_iterations=int(solver.it.newtonStepsCount), jacobians=int(solver.it.newtonJacobiCount))
-    return out, stats
+    return out, _checked_stats(out, settings, mbs, wall, cpu, duration, n_steps)
 
 
 # --------------------------------------------------------------------------------------- recordings
