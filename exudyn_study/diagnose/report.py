@@ -151,10 +151,11 @@ def _errors(diagnosis: Diagnosis, data: Mapping, path: Path) -> Path | None:
         return None
     chans = list(next(iter(per.values())))
     groups = {"train": list(data.get("train", [])), "held-out": list(data.get("holdout", []))}
-    fig = _figure(max(6.0, 1.1 * len(chans) + 2), 3.2)
+    fig = _figure(_bar_width_in(len(chans), 1.1), 3.2)
     ax = fig.subplots()
     x = np.arange(len(chans))
     width = 0.2
+    drawn = []
     colours = {
         ("train", "before"): "#f4a582",
         ("train", "after"): "#92c5de",
@@ -169,16 +170,34 @@ def _errors(diagnosis: Diagnosis, data: Mapping, path: Path) -> Path | None:
         for when in ("before", "after"):
             vals = [np.mean([per[lab][ch][when] for lab in labs]) for ch in chans]
             ax.bar(x + (k - 1.5) * width, vals, width, color=colours[(g, when)], label=f"{g}, {when}")
+            drawn += vals
             k += 1
+    _log_axis_if_spread(ax, drawn)
     ax.set_xticks(x)
-    ax.set_xticklabels(chans)
-    ax.set_ylabel("relative FRF error (-)")
+    many = len(chans) > 12
+    ax.set_xticklabels(chans, rotation=45 if many else 0, ha="right" if many else "center",
+                       fontsize=7 if many else None)
+    kind = "FRF error" if "FRF" in str(fit.get("metric", "")) else "error"
+    ax.set_ylabel(f"relative {kind} (-)")
     ax.set_title(
-        f"FRF error per channel, nominal (before) vs with {diagnosis.findings[0].physics} (after)", fontsize=9
+        f"{kind} per channel, nominal (before) vs with {diagnosis.findings[0].physics} (after)", fontsize=9
     )
     ax.legend(fontsize=7, ncol=2)
     ax.grid(True, axis="y", alpha=0.3)
     return _save(fig, path)
+
+
+def _bar_width_in(n_channels: int, per_channel_in: float) -> float:
+    """Figure width of a per-channel bar chart (in): grows with the channels, capped for 42 sensors."""
+    return min(24.0, max(6.0, per_channel_in * n_channels + 2))
+
+
+def _log_axis_if_spread(ax, values) -> None:
+    """Log y axis when the positive values span more than two decades (a linear one hides the small)."""
+    v = np.asarray(values, dtype=float)
+    v = v[np.isfinite(v) & (v > 0)]
+    if v.size and v.max() / v.min() > 100:
+        ax.set_yscale("log")
 
 
 def _pseudo_damage(data: Mapping, path: Path) -> Path | None:
@@ -187,7 +206,7 @@ def _pseudo_damage(data: Mapping, path: Path) -> Path | None:
         return None
     chans = list(pd)
     kinds = [k for k in ("measured", "before", "after") if any(k in pd[c] for c in chans)]
-    fig = _figure(max(6.0, 1.0 * len(chans) + 2), 3.2)
+    fig = _figure(_bar_width_in(len(chans), 1.0), 3.2)
     ax = fig.subplots()
     x = np.arange(len(chans))
     width = 0.8 / max(len(kinds), 1)
@@ -199,10 +218,7 @@ def _pseudo_damage(data: Mapping, path: Path) -> Path | None:
             width,
             label=names[k],
         )
-    values = np.array([pd[c].get(k, np.nan) for c in chans for k in kinds], dtype=float)
-    values = values[np.isfinite(values) & (values > 0)]
-    if values.size and values.max() / values.min() > 100:
-        ax.set_yscale("log")  # ratios spanning decades: a linear axis hides all but the largest
+    _log_axis_if_spread(ax, [pd[c].get(k, np.nan) for c in chans for k in kinds])
     ax.axhline(1.0, color="k", lw=0.8, ls=":")
     ax.set_xticks(x)
     ax.set_xticklabels(chans, rotation=45, ha="right", fontsize=7)
