@@ -24,7 +24,8 @@ from rig_fixtures import FRAME_SENSORS, MODEL3_SENSORS, mini_bodies, mini_model3
 
 TWO_PI = 2 * math.pi
 RATE_HZ = 1000.0
-NEW = ("joint_stiffness", "joint_friction", "bushing_stiffening", "sloshing", "modal_damping", "sensor_gain")
+NEW = ("joint_stiffness", "joint_friction", "bushing_stiffening", "sloshing", "modal_damping", "sensor_gain",
+       "bushing_stiffness")
 
 
 @pytest.fixture(scope="module", autouse=True)
@@ -428,3 +429,82 @@ def test_sensor_gain_scales_one_channel_only(bodies1):
     lin0, lin = modal.linearize(model0), modal.linearize(model)
     np.testing.assert_array_equal(lin.stiffness, lin0.stiffness)
     np.testing.assert_array_equal(lin.sensor_map, lin0.sensor_map)
+
+
+# --------------------------------------------------------------------------------------- bushing_stiffness
+def _face_motion(model, lin, body, nodes, centre, phi):
+    """Least-squares rigid motion (translation at ``centre``, rotation), shape (6, n_modes), of mesh ``nodes``
+    in the modes ``phi``: ``u_i = t + theta x (x_i - centre)`` fitted to the nodes' displacements."""
+    from exudyn_study import modal
+
+    idx, mat = modal.body_displacement_map(model, body, np.asarray(nodes))
+    u = (mat @ (lin.nullspace.T @ phi)[idx]).reshape(len(nodes), 3, -1)
+    r = np.asarray(model.bodies[body].body.node_positions_m)[nodes] - centre
+    rows = []
+    for ri in r:  # u_i = [I, -skew(r_i)] [t; theta]
+        skew = np.array([[0.0, -ri[2], ri[1]], [ri[2], 0.0, -ri[0]], [-ri[1], ri[0], 0.0]])
+        rows.append(np.hstack([np.eye(3), -skew]))
+    a = np.vstack(rows)
+    return np.linalg.lstsq(a, u.reshape(-1, phi.shape[1]), rcond=None)[0]
+
+
+def test_bushing_stiffness_raises_the_bracket_modes_by_the_pad_springs_energy(bodies3, nominal3):
+    """d(w^2) = delta^T K_pad delta (first order; delta the rigid-fit motion of the pad's outer face relative
+    to its inner face in the mass-normalised mode), d(zeta) = tau delta^T K_pad delta / (2 w), other modes
+    stay; ``K_pad`` from the bonded-block formulas: shear G A / t, compression E_c A / t."""
+    from exudyn_study import modal
+    from exudyn_study.physics.entries_structure import pad_spring_matrix, rubber_pad
+
+    model0, lin0 = nominal3
+    pad = rubber_pad(model0.bodies["bracket_left"].body)
+    # the mini pad: 0.10 x 0.02 x 0.10 m (x, y, z), normal y
+    assert pad["normal"] == 1 and pad["thickness_m"] == pytest.approx(0.02, rel=1e-6)
+    assert pad["area_m2"] == pytest.approx(0.01, rel=1e-6)
+    g, e_c, tau = 2e4, 1e5, 1e-4  # small against the pad's own stiffness: first order holds
+    k_pad = pad_spring_matrix(pad, g, e_c)
+    assert k_pad[0, 0] == pytest.approx(g * 0.01 / 0.02) and k_pad[1, 1] == pytest.approx(e_c * 0.01 / 0.02)
+    assert k_pad[3, 3] == pytest.approx(e_c * 0.01 * 0.1**2 / 12 / 0.02)  # rocking about x
+    assert k_pad[4, 4] == pytest.approx(g * 0.01 * (0.1**2 + 0.1**2) / 12 / 0.02)  # torsion about y
+
+    f0, phi0 = _undamped(lin0)
+    rel = (_face_motion(model0, lin0, "bracket_left", pad["outer"], pad["centre_m"], phi0)
+           - _face_motion(model0, lin0, "bracket_left", pad["inner"], pad["centre_m"], phi0))
+    energy = np.einsum("im,ij,jm->m", rel, k_pad, rel)  # delta^T K delta per mass-normalised mode
+    w0 = TWO_PI * np.maximum(f0, 1e-9)
+
+    model = _model3(bodies3)
+    applied = entry("bushing_stiffness").apply(model, shear_modulus_increase_pa=g,
+                                               compression_modulus_increase_pa=e_c, damping_time_s=tau)
+    assert applied.location == "bracket_left"
+    lin = modal.linearize(model)
+    assert lin.size == lin0.size  # a spring: no coordinate added or removed
+    f1 = _undamped(lin)[0]
+    band = (f0 > 1.0) & (f0 < 150.0)
+    shift = (f1 / np.where(f0 > 0, f0, 1.0)) ** 2 - 1.0
+    predicted = energy / w0**2
+    assert np.all(shift[band] >= -1e-9)  # a parallel spring never softens
+    big = band & (predicted > 1e-3)
+    quiet = band & (predicted < 1e-6)
+    assert big.sum() >= 2 and quiet.sum() >= 5
+    np.testing.assert_allclose(shift[big], predicted[big], rtol=0.1)
+    np.testing.assert_allclose(shift[quiet], 0.0, atol=1e-5)
+
+    # damping: on a model without any other damping, zeta = tau delta^T K delta / (2 w) in the modes that
+    # strain the pad (the spring's share of the stiffness is small, so the modes are those of lin0)
+    undamped3 = _model3(bodies3, damping=lambda f: np.zeros_like(np.asarray(f, dtype=float)))
+    entry("bushing_stiffness").apply(undamped3, shear_modulus_increase_pa=g,
+                                     compression_modulus_increase_pa=e_c, damping_time_s=1e-3)
+    modes = modal.system_modes(undamped3, modal.linearize(undamped3), max_frequency_hz=150.0)
+    for k in np.flatnonzero(big):
+        j = int(np.argmin(np.abs(modes.frequency_hz - f1[k])))
+        assert modes.damping_ratio[j] == pytest.approx(1e-3 * energy[k] / (2 * w0[k]), rel=0.15), f0[k]
+
+
+def test_bushing_stiffness_needs_the_rubber_pad(bodies1, bodies3):
+    with pytest.raises(InputError, match=r"bushing_stiffness: no body of this model has the rubber region"):
+        entry("bushing_stiffness").apply(_model1(bodies1))
+    with pytest.raises(InputError, match=r"bushing_stiffness: location 'bracket_right'; expected None or "
+                                         r"'bracket_left'"):
+        entry("bushing_stiffness").apply(_model3(bodies3), "bracket_right")
+    with pytest.raises(InputError, match=r"parameter compression_modulus_increase_pa = -1 Pa"):
+        entry("bushing_stiffness").resolve(compression_modulus_increase_pa=-1)

@@ -8,8 +8,8 @@ and the diagnosis (hypotheses) use the same catalogue; users can :func:`register
 
 >>> from exudyn_study.physics import entry, CATALOGUE
 >>> sorted(CATALOGUE)  # doctest: +NORMALIZE_WHITESPACE
-['added_mass', 'bushing_stiffening', 'drive_linkage_compliance', 'joint_friction',
- 'joint_stiffness', 'modal_damping', 'sensor_gain', 'sloshing']
+['added_mass', 'bushing_stiffening', 'bushing_stiffness', 'drive_linkage_compliance',
+ 'joint_friction', 'joint_stiffness', 'modal_damping', 'sensor_gain', 'sloshing']
 >>> entry("added_mass").parameter("mass_kg").unit
 'kg'
 """
@@ -33,6 +33,7 @@ from .entries_more import (
     SENSOR_GAIN,
     SLOSHING,
 )
+from .entries_structure import BUSHING_STIFFNESS
 
 __all__ = [
     "CATALOGUE",
@@ -51,4 +52,5 @@ __all__ = [
     "SLOSHING",
     "MODAL_DAMPING",
     "SENSOR_GAIN",
+    "BUSHING_STIFFNESS",
 ]

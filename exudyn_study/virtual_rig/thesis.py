@@ -45,7 +45,18 @@ import numpy as np
 
 from .scenarios import THESIS_TABLE1, Augment, Scenario
 
-__all__ = ["THESIS_SCENARIO", "THESIS_PARAMETERS", "THESIS_FIT", "thesis_augmentations", "compare_table1"]
+__all__ = [
+    "THESIS_SCENARIO",
+    "THESIS_PARAMETERS",
+    "THESIS_FIT",
+    "EMA_REFERENCES",
+    "thesis_augmentations",
+    "compare_table1",
+    "references_held",
+]
+
+#: the thesis's EMA references (Section 5.1): the frame side members at the linkage
+EMA_REFERENCES = ("ARFVZ", "ARFHZ")
 
 #: fitted parameters (SI): tank and bracket joints, drive linkage, bushing, per-body damping factors
 THESIS_PARAMETERS = {
@@ -97,7 +108,7 @@ THESIS_FIT = {
 
 
 def thesis_augmentations(parameters: dict = THESIS_PARAMETERS) -> tuple[Augment, ...]:
-    """The catalogue entries of the thesis truth for ``parameters`` (layout of :data:`THESIS_PARAMETERS`)."""
+    """Return the catalogue entries of the thesis truth for ``parameters`` (:data:`THESIS_PARAMETERS` layout)."""
     aug = [
         Augment(
             "joint_stiffness",
@@ -120,6 +131,47 @@ def thesis_augmentations(parameters: dict = THESIS_PARAMETERS) -> tuple[Augment,
         for body, f, lo, hi in parameters["modal_damping"]
     ]
     return tuple(aug)
+
+
+def references_held(lin, references=EMA_REFERENCES):
+    """Return the linearised system with the reference sensors' measured displacements held at zero.
+
+    An EMA that divides by reference accelerations (transmissibilities) sees the poles of
+    the structure with the reference points held: the modes of this system. The drive
+    terms are zero (the references carry the motion).
+
+    Parameters
+    ----------
+    lin : exudyn_study.modal.LinearSystem
+    references : sequence of str
+        Sensor names of ``lin`` (their measuring direction is held).
+
+    Returns
+    -------
+    exudyn_study.modal.LinearSystem
+        For :func:`exudyn_study.modal.system_modes`.
+
+    Raises
+    ------
+    InputError
+        A reference that is not a sensor of ``lin``.
+    """
+    import dataclasses
+
+    import scipy.linalg as sla
+
+    from ..errors import InputError
+
+    missing = [r for r in references if r not in lin.sensor_names]
+    if missing:
+        raise InputError(f"references {missing}: not sensors of the model; it has {list(lin.sensor_names)}")
+    rows = lin.sensor_output[[lin.sensor_names.index(r) for r in references]]
+    held = sla.null_space(rows)  # (n, n - n_ref): admissible increments with the references at rest
+    zeros = np.zeros(held.shape[1])
+    return dataclasses.replace(
+        lin, mass=held.T @ lin.mass @ held, damping=held.T @ lin.damping @ held,
+        stiffness=held.T @ lin.stiffness @ held, nullspace=held.T @ lin.nullspace,
+        drive_shape=np.zeros_like(lin.drive_shape), b0=zeros, b1=zeros, b2=zeros)
 
 
 def compare_table1(frequency_hz, damping_ratio, table=THESIS_TABLE1) -> list[dict]:
@@ -146,7 +198,7 @@ def compare_table1(frequency_hz, damping_ratio, table=THESIS_TABLE1) -> list[dic
     ft = np.array([row[0] for row in table], dtype=float)
     cost = np.abs(np.log(f[:, None] / ft[None, :])) if f.size else np.zeros((0, ft.size))
     rows, cols = linear_sum_assignment(cost) if f.size else (np.array([], int), np.array([], int))
-    match = dict(zip(cols.tolist(), rows.tolist()))
+    match = dict(zip(cols.tolist(), rows.tolist(), strict=True))
     out = []
     for k, (fk, zk, text) in enumerate(table):
         i = match.get(k)

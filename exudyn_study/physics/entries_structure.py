@@ -1,0 +1,161 @@
+"""Catalogue entries for structural properties the nominal bodies get wrong.
+
+- ``bushing_stiffness``: the left mudguard bracket's rubber pad is stiffer (or damps more)
+  than the nominal body's rubber: a linear spring-damper across the pad, sized from the
+  pad's bonded area and thickness.
+
+References
+----------
+Gent, A. N. (2012). Engineering with rubber, 3rd ed., Chapter 9 (shear and compression of
+bonded rubber blocks). Carl Hanser.
+"""
+
+from __future__ import annotations
+
+import numpy as np
+
+from ..errors import InputError
+from .catalogue import Parameter, PhysicsEntry, register
+from .entries_more import exudyn_mesh_nodes
+
+__all__ = ["BUSHING_STIFFNESS", "rubber_pad", "pad_spring_matrix"]
+
+_RUBBER_REGION = "bracket_left_rubber"
+
+
+def _rubber_body(model) -> str | None:
+    for name, handle in model.bodies.items():
+        if _RUBBER_REGION in handle.body.region_nodes:
+            return name
+    return None
+
+
+def rubber_pad(body, region: str = _RUBBER_REGION) -> dict:
+    """Geometry of a flat bonded rubber pad (a mesh region of a reduced body).
+
+    Parameters
+    ----------
+    body : exudyn_study.reduction.ReducedBody
+    region : str
+        Mesh region of the pad (its thinnest extent is the pad's thickness).
+
+    Returns
+    -------
+    dict
+        ``normal`` (axis 0/1/2 of the thickness), ``thickness_m``, ``extent_m`` (ndarray (3,),
+        the pad's bounding box, m), ``area_m2`` (bonded area, the in-plane extents' product),
+        ``centre_m`` (ndarray (3,), body coordinates), ``inner`` and ``outer`` (mesh nodes of the
+        face nearer to and farther from the body's ``y = 0`` plane along the normal).
+    """
+    nodes = np.asarray(body.region_nodes[region], dtype=int)
+    x = np.asarray(body.node_positions_m)[nodes]
+    extent = np.ptp(x, axis=0)
+    normal = int(np.argmin(extent))
+    depth = np.abs(x[:, normal])
+    tol = 1e-3 * float(extent.max()) + 1e-9
+    inner = nodes[depth <= depth.min() + tol]
+    outer = nodes[depth >= depth.max() - tol]
+    plane = [a for a in range(3) if a != normal]
+    return {"normal": normal, "thickness_m": float(extent[normal]), "extent_m": extent,
+            "area_m2": float(extent[plane[0]] * extent[plane[1]]),
+            "centre_m": 0.5 * (x.min(axis=0) + x.max(axis=0)), "inner": inner, "outer": outer}
+
+
+def pad_spring_matrix(pad: dict, shear_modulus_pa: float, compression_modulus_pa: float) -> np.ndarray:
+    """6 x 6 stiffness (N/m, N m/rad; translations then rotations about x, y, z) of a bonded pad.
+
+    A thin block of thickness ``t`` and in-plane sides ``a``, ``b`` bonded between two rigid
+    plates (Gent 2012, Ch. 9): shear ``G A / t`` along both in-plane axes, compression
+    ``E_c A / t`` along the normal, torsion about the normal ``G J / t`` with
+    ``J = A (a^2 + b^2) / 12`` and rocking about an in-plane axis ``E_c I / t`` with ``I`` the
+    area's second moment about that axis (``A s^2 / 12``, ``s`` the side across it).
+    """
+    n, t, area = pad["normal"], pad["thickness_m"], pad["area_m2"]
+    ext = np.asarray(pad["extent_m"], dtype=float)
+    k = np.zeros(6)
+    for axis in range(3):
+        if axis == n:
+            k[axis] = compression_modulus_pa * area / t
+            k[3 + axis] = shear_modulus_pa * area * (np.sum(ext**2) - ext[n] ** 2) / 12.0 / t
+        else:
+            across = 3 - n - axis  # the in-plane side perpendicular to this rocking axis
+            k[axis] = shear_modulus_pa * area / t
+            k[3 + axis] = compression_modulus_pa * area * ext[across] ** 2 / 12.0 / t
+    return np.diag(k)
+
+
+def _check_pad_location(model, location):
+    if location not in (None, "bracket_left"):
+        raise InputError(f"bushing_stiffness: location {location!r}; expected None or 'bracket_left' "
+                         "(the left mudguard bracket carries the only rubber bushing)")
+    if _rubber_body(model) is None:
+        raise InputError("bushing_stiffness: no body of this model has the rubber region "
+                         f"{_RUBBER_REGION!r}; bodies {sorted(model.bodies)}")
+    return "bracket_left"
+
+
+def _face_marker(model, body_name: str, nodes, centre_m) -> int:
+    """Rigid marker averaging ``nodes`` (equal weights), shifted to ``centre_m`` (body coordinates)."""
+    import exudyn.itemInterface as eii
+
+    handle = model.bodies[body_name]
+    nodes = np.asarray(nodes, dtype=int)
+    local = exudyn_mesh_nodes(model, body_name, nodes)
+    mean = np.asarray(handle.body.node_positions_m)[nodes].mean(axis=0)
+    offset = np.asarray(centre_m, dtype=float) - mean
+    return int(model.mbs.AddMarker(eii.MarkerSuperElementRigid(
+        bodyNumber=handle.object_number, meshNodeNumbers=[int(i) for i in local],
+        weightingFactors=[1.0 / nodes.size] * nodes.size, offset=[float(v) for v in offset],
+        visualization=eii.VMarkerSuperElementRigid(show=False))))
+
+
+def _add_bushing_stiffness(model, location, params: dict) -> dict:
+    import exudyn.itemInterface as eii
+
+    body_name = _rubber_body(model)
+    pad = rubber_pad(model.bodies[body_name].body)
+    m_frame = _face_marker(model, body_name, pad["inner"], pad["centre_m"])
+    m_bracket = _face_marker(model, body_name, pad["outer"], pad["centre_m"])
+    k = pad_spring_matrix(pad, params["shear_modulus_increase_pa"], params["compression_modulus_increase_pa"])
+    d = params["damping_time_s"] * k
+    spring = model.mbs.AddObject(eii.ObjectConnectorRigidBodySpringDamper(
+        name="bushing_stiffness:bracket_left", markerNumbers=[m_frame, m_bracket], stiffness=k.tolist(),
+        damping=d.tolist(), visualization=eii.VObjectConnectorRigidBodySpringDamper(show=False)))
+    return {"frame_side_marker": m_frame, "bracket_side_marker": m_bracket, "spring": int(spring)}
+
+
+BUSHING_STIFFNESS = register(PhysicsEntry(
+    name="bushing_stiffness",
+    doc="""The left mudguard bracket's rubber pad is stiffer and more damped than the nominal rubber.
+
+Physics: the nominal bodies carry the pad as linear elastic rubber with a handbook modulus
+(``materials.MATERIALS['rubber']``: E = 5 MPa, nu = 0.47, shear modulus G = 1.7 MPa); a
+harder compound (G of filled rubbers spans about 0.3-3 MPa) and the near-incompressibility
+of a thin bonded pad (its compression modulus ``E_c`` grows with the square of the shape
+factor, Gent 2012) make the real pad stiffer. The increase acts in parallel with the pad: a
+6-DOF spring-damper between the pad's two bonded faces (rigid markers averaging all mesh
+nodes of each face of the region ``'bracket_left_rubber'``, both at the pad's centre) with
+the stiffness of a bonded block (:func:`pad_spring_matrix`): shear
+``shear_modulus_increase_pa * A / t`` along the two in-plane axes, compression
+``compression_modulus_increase_pa * A / t`` along the normal, torsion and rocking from the
+bonded area's polar and axial second moments. The damping is stiffness-proportional,
+``damping_time_s * K`` (the rubber's loss: a mode carried by the pad gets
+``zeta ~ damping_time_s * omega / 2`` of that spring's share of its strain energy).
+
+Signature: the left bracket's modes (``ASV*`` sensors) rise in frequency, by
+``omega^2 -> omega^2 + phi^T K_pad phi`` to first order (phi mass-normalised); modes without
+relative motion across the pad (the other bodies' modes) keep their frequencies; with
+``damping_time_s > 0`` the left bracket's modes are more damped, more so at higher
+frequency. The response is level-independent (linear).
+""",
+    parameters=(
+        Parameter("shear_modulus_increase_pa", "Pa", 0.0, 1e7, 1e6,
+                  "added shear modulus of the pad (in-plane shear and torsion)"),
+        Parameter("compression_modulus_increase_pa", "Pa", 0.0, 1e9, 0.0,
+                  "added compression modulus of the pad (normal and rocking)"),
+        Parameter("damping_time_s", "s", 0.0, 1e-2, 0.0, "stiffness-proportional damping time of the spring"),
+    ),
+    add_items=_add_bushing_stiffness,
+    locations="None or 'bracket_left' (the left mudguard bracket's rubber bushing)",
+    check_location=_check_pad_location,
+))
