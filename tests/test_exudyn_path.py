@@ -108,3 +108,24 @@ def test_stiff_bushing_model_integrates_with_the_default_tolerance():
     err = band_limited_rms_error(y, ref)
     strong = _strong(ref)
     assert err[strong].max() < RTOL_STRONG, dict(zip(MODEL3_SENSORS, np.round(100 * err, 2), strict=True))
+
+
+def test_position_markers_of_the_spherical_joints_keep_the_linearised_system(monkeypatch):
+    """The rig's spherical joints on flexible bodies use position markers (cheaper): same linearisation."""
+    from exudyn_study import modal
+    from exudyn_study.model import build_model_from_bodies
+    from exudyn_study.model import rig as rig_module
+
+    def lin():
+        model = build_model_from_bodies(mini_bodies(), 1, damping="constant-2", sensors=FRAME_SENSORS)
+        return model, modal.linearize(model)
+
+    fast_model, fast = lin()
+    kinds = {str(fast_model.mbs.GetMarker(int(fast_model.mbs.GetObject(fast_model.joints[j])["markerNumbers"][1]))
+                 ["markerType"]) for j in ("strut_left_frame", "front_strut_frame", "foundation_rear_left")}
+    assert kinds == {"SuperElementPosition"}
+    monkeypatch.setattr(rig_module, "position_marker", lambda mbs, marker: marker)
+    _, rigid = lin()
+    for name in ("mass", "damping", "stiffness", "b0", "b1", "b2", "sensor_output", "sensor_drive"):
+        a, b = getattr(fast, name), getattr(rigid, name)
+        np.testing.assert_allclose(a, b, rtol=0, atol=1e-10 * np.abs(b).max(), err_msg=name)

@@ -44,7 +44,7 @@ import numpy as np
 
 from ..errors import InputError
 
-__all__ = ["RigParameters", "RigHandles", "Drive", "add_rig", "generic_joint", "ground_marker"]
+__all__ = ["RigParameters", "RigHandles", "Drive", "add_rig", "generic_joint", "ground_marker", "position_marker"]
 
 @dataclass(frozen=True)
 class RigParameters:
@@ -231,6 +231,29 @@ def generic_joint(mbs, marker0: int, marker1: int, axes, name: str, **kwargs) ->
     )
 
 
+def position_marker(mbs, marker: int) -> int:
+    """Add a ``MarkerSuperElementPosition`` on the nodes and weights of a rigid super-element marker.
+
+    For a joint that constrains positions only (spherical), the position marker gives
+    the same point (the weighted mean of the patch nodes) and the same linearisation as
+    the ``MarkerSuperElementRigid`` it is made from, without the marker's rotation
+    (weighted rotation and its Jacobian from every patch node in every Newton
+    iteration): on Model 1 the rig's seven spherical joints on flexible bodies made the
+    full Exudyn path 1.46x slower with rigid markers (``benchmarks/bench_simulation.py``).
+    Any other marker (or a rigid one with an offset) is returned unchanged.
+    """
+    import exudyn.itemInterface as eii
+
+    data = mbs.GetMarker(marker)
+    offset = np.asarray(data.get("offset", 0.0), dtype=float)
+    if str(data.get("markerType")) != "SuperElementRigid" or np.any(offset != 0.0):
+        return marker
+    return mbs.AddMarker(eii.MarkerSuperElementPosition(
+        name=f"position:{data.get('name', marker)}", bodyNumber=data["bodyNumber"],
+        meshNodeNumbers=[int(n) for n in data["meshNodeNumbers"]],
+        weightingFactors=[float(w) for w in data["weightingFactors"]]))
+
+
 def _rigid_body(mbs, name: str, position, mass: float, side_lengths, color) -> tuple[int, int]:
     """A cuboid-inertia rigid body of ``mass`` centred at ``position``; returns (object, node)."""
     import exudyn.utilities as eu
@@ -336,7 +359,8 @@ def add_rig(mbs, frame_markers: dict, frame_positions: dict, foundation, params:
             (1, 1, 1, 0, 0, 1), f"{name}_linkage")
         h.joints[f"{name}_frame"] = mbs.AddObject(eii.ObjectJointSpherical(
             name=f"{name}_frame",
-            markerNumbers=[_body_marker(mbs, h.bodies[name], s_pos, top), frame_markers[f"front_{side}_drive"]],
+            markerNumbers=[_body_marker(mbs, h.bodies[name], s_pos, top),
+                           position_marker(mbs, frame_markers[f"front_{side}_drive"])],
             visualization=eii.VObjectJointSpherical(show=False)))
     # front attachment strut along y: universal joint at ground, spherical at the frame
     fs = np.asarray(frame_positions["front_strut"], dtype=float)
@@ -349,7 +373,8 @@ def add_rig(mbs, frame_markers: dict, frame_positions: dict, foundation, params:
         (1, 1, 1, 0, 1, 0), "front_strut_ground")  # universal joint: twist about y locked
     h.joints["front_strut_frame"] = mbs.AddObject(eii.ObjectJointSpherical(
         name="front_strut_frame",
-        markerNumbers=[_body_marker(mbs, h.bodies["front_strut"], f_pos, fs), frame_markers["front_strut"]],
+        markerNumbers=[_body_marker(mbs, h.bodies["front_strut"], f_pos, fs),
+                       position_marker(mbs, frame_markers["front_strut"])],
         visualization=eii.VObjectJointSpherical(show=False)))
     # rear foundation: fixed to ground, spherical to the frame's rear attachments
     for side in ("left", "right"):
@@ -359,6 +384,7 @@ def add_rig(mbs, frame_markers: dict, frame_positions: dict, foundation, params:
             foundation.interface_markers[gname], (1, 1, 1, 1, 1, 1), f"foundation_{gname}")
         h.joints[f"foundation_rear_{side}"] = mbs.AddObject(eii.ObjectJointSpherical(
             name=f"foundation_rear_{side}",
-            markerNumbers=[foundation.interface_markers[f"frame_{side}"], frame_markers[f"rear_{side}"]],
+            markerNumbers=[position_marker(mbs, foundation.interface_markers[f"frame_{side}"]),
+                           position_marker(mbs, frame_markers[f"rear_{side}"])],
             visualization=eii.VObjectJointSpherical(show=False)))
     return h
