@@ -32,6 +32,7 @@ from dataclasses import dataclass
 import numpy as np
 
 from ..errors import InputError
+from ..sensors import SENSORS as _SENSOR_TABLE
 from .polymax import modal_to_pole
 
 __all__ = [
@@ -51,50 +52,10 @@ TABLE1_FREQUENCY_HZ = (12.05, 13.21, 14.15, 15.00, 21.21, 32.69, 36.64, 41.37, 4
 TABLE1_DAMPING = (0.0181, 0.0146, 0.0178, 0.0218, 0.0119, 0.0547, 0.0346, 0.0119, 0.0209,
                   0.0053)
 
-#: thesis Appendix A: (name, direction, position in mm, local rig coordinates)
-APPENDIX_A_SENSORS = (
-    ("ARFMZ", "Z", (-530, -5, 315)),
-    ("ARFVX", "X", (-300, -455, 170)),
-    ("ARFVY", "Y", (-315, -475, 170)),
-    ("ARFVZ", "Z", (-315, -455, 190)),
-    ("ARFHX", "X", (-300, 455, 150)),
-    ("ARFHY", "Y", (-315, 475, 150)),
-    ("ARFHZ", "Z", (-315, 455, 170)),
-    ("AVBFZ", "Z", (125, 0, 270)),
-    ("ARVTFZ", "Z", (450, -425, 245)),
-    ("ARVTBZ", "Z", (935, -400, 245)),
-    ("ARHTFXH", "X", (465, 420, 215)),
-    ("ARHTFYH", "Y", (445, 440, 215)),
-    ("ARHTFZH", "Z", (445, 420, 235)),
-    ("ARHTFXL", "X", (475, 420, 55)),
-    ("ARHTFYL", "Y", (455, 440, 55)),
-    ("ARHTFZL", "Z", (455, 420, 75)),
-    ("ARHTBZ", "Z", (955, 395, 240)),
-    ("ATBGZ", "Z", (1475, -10, 300)),
-    ("ARVBX", "X", (2490, -535, 210)),
-    ("ARVBY", "Y", (2470, -555, 210)),
-    ("ARVBZ", "Z", (2470, -535, 230)),
-    ("ARHBX", "X", (2500, 535, 210)),
-    ("ARHBY", "Y", (2480, 555, 210)),
-    ("ARHBZ", "Z", (2480, 535, 230)),
-    ("ATBPX", "X", (855, 0, 260)),
-    ("ATBPZ", "Z", (875, 0, 280)),
-    ("ATHFX", "X", (225, 835, 285)),
-    ("ATHBX", "X", (1030, 835, 285)),
-    ("ATHBZ", "Z", (1050, 835, 305)),
-    ("ATVBX", "X", (1050, -825, 285)),
-    ("ATVBZ", "Z", (1070, -825, 305)),
-    ("ATVFX", "X", (250, -815, 285)),
-    ("ARSVZ", "Z", (-150, -450, 230)),
-    ("ASHX", "X", (-115, 1155, 95)),
-    ("ASHY", "Y", (-95, 1175, 95)),
-    ("ASHZ", "Z", (-95, 1155, 115)),
-    ("ASVX", "X", (-130, -1148, 105)),
-    ("ASVY", "Y", (-110, -1128, 105)),
-    ("ASVZ", "Z", (-110, -1148, 125)),
-    ("ATVFXZ", "Z", (230, -815, 305)),
-    ("ATHFZ", "Z", (205, 835, 305)),
-    ("ARSHZ", "Z", (0, 435, 130)),
+#: thesis Appendix A: (name, direction, position in whole mm, local rig coordinates), from
+#: :data:`exudyn_study.sensors.SENSORS` (the one table of the 42 accelerometers)
+APPENDIX_A_SENSORS = tuple(
+    (s.name, s.direction, tuple(int(round(1000.0 * c)) for c in s.position_m)) for s in _SENSOR_TABLE
 )
 
 #: response channels of the thesis's identification (channels 1 and 8-42, Section 5.1)
