@@ -1,26 +1,33 @@
 """Benchmark: time simulation of the rig models (issue 3), speed and accuracy in one run.
 
-``python benchmarks/bench_simulation.py [--models mini model1] [--exudyn-seconds 5] [--duration 80]``
+``python benchmarks/bench_simulation.py [--models mini model1] [--mesh production] [--exudyn-seconds 5]
+[--duration 80]``
 
 Per model (``mini``: the test frame of ``tests/rig_fixtures.py``; ``model1``/``model2``/
-``model3``: coarse chassis from the body cache):
+``model3``: the chassis of ``--mesh`` from the body cache, all modes):
 
 1. **Linear path** (exact discretisation of the linearised system): an 80 s white-noise
-   run, simulated seconds per wall and per CPU second (target >= 100x real time).
-2. **Exudyn, full model** (rig joints, linear CMS bodies, generalised-alpha, h = 1 ms,
-   rho 1): ``--exudyn-seconds`` of the same drive, before (whole interface patches in
-   the rigid markers, all mesh nodes) and after (a few patch nodes per marker, used mesh
-   nodes only); speed and band-limited (< 70 Hz) rms error per channel against the exact
-   linear solution (target: 3 %, at least real time).
+   run, simulated seconds per wall and per CPU second (target >= 100x real time); it is
+   the reference of every error below.
+2. **Exudyn, full model** (rig joints, prescribed drive, linear CMS bodies,
+   generalised-alpha): ``--exudyn-seconds`` of the same drive at the default settings
+   (h = 1/8 ms, rho_infinity 0.5), *before* (rigid super-element markers on the rig's
+   spherical joints, Newton relative tolerance 1e-8) and *after* (position markers,
+   relative tolerance 1e-6, the defaults; and with ``single_iteration=True``, one
+   Newton iteration per step); speed (real-time factor, us per step, Newton
+   iterations per step) and band-limited (< 70 Hz) rms error per channel against the
+   exact linear solution (targets: 3 %, at least real time).
 3. **Exudyn, reduced** (generalised-alpha on the constraint-projected linearisation,
-   ``method='exudyn-reduced'``): the full 80 s at h = 1, 1/8, 1/16, 1/32 ms; speed and accuracy.
+   ``method='exudyn-reduced'``): the full duration at h = 1, 1/8, 1/16, 1/32 ms; speed
+   and accuracy.
 4. **Free decay** of the first three modes (exact and Exudyn-reduced): log-decrement damping
    vs the damped eigenvalue (target: two modes within 2 %).
 5. **FRF**: H1 of the 80 s linear run vs the modal-superposition FRF, max dB error per
    channel in 3.5-59 Hz outside antiresonances (target 1 dB), also without resonances
    narrower than the resolution.
 
-CPU time is printed next to wall time: the machine is shared (load average in the header).
+CPU time is printed next to wall time: the machine is shared (load average in the header);
+compare speeds as ratios within one run.
 """
 
 from __future__ import annotations
@@ -36,14 +43,14 @@ import numpy as np
 sys.path.insert(0, str(Path(__file__).resolve().parents[1] / "tests"))
 
 
-def build(name: str, **kw):
+def build(name: str, mesh: str = "production", **kw):
     from exudyn_study.model import build_model, build_model_from_bodies
 
     if name == "mini":
         from rig_fixtures import FRAME_SENSORS, mini_bodies
 
         return build_model_from_bodies(mini_bodies(), 1, damping="constant-2", sensors=FRAME_SENSORS, **kw)
-    return build_model(int(name[-1]), damping="adams-default", mesh_size="coarse", **kw)
+    return build_model(int(name[-1]), damping="adams-default", mesh_size=mesh, **kw)
 
 
 def fmt(e) -> str:
@@ -71,7 +78,7 @@ def bench(name: str, args) -> dict:
     res = {}
     print(f"\n=== {name} ===", flush=True)
     t0 = time.perf_counter()
-    model = build(name, exudyn_mesh="used")
+    model = build(name, args.mesh, exudyn_mesh="used")
     model.assemble()
     lin = modal.linearize(model)
     modes = modal.system_modes(model, lin, max_frequency_hz=100.0)
@@ -89,17 +96,31 @@ def bench(name: str, args) -> dict:
 
     n_ex = int(args.exudyn_seconds * 1000)
     xs = x[: n_ex + 1]
-    for label, kw in (("before: whole patches, all nodes", dict(marker_nodes=None, exudyn_mesh="all")),
-                      ("after: few patch nodes, used nodes", dict(exudyn_mesh="used"))):
+    from exudyn_study.model import rig as rig_module
+
+    position_marker = rig_module.position_marker
+    runs = (("before: rigid markers on spherical joints, Newton rtol 1e-8",
+             lambda mbs, marker: marker, IntegratorSettings(relative_tolerance=1e-8)),
+            ("after: position markers, defaults", position_marker, IntegratorSettings()),
+            ("after: position markers, one Newton iteration per step", position_marker,
+             IntegratorSettings(single_iteration=True)))
+    for label, marker_fn, settings in runs:
         if label.startswith("before") and args.skip_before:
             continue
-        m = build(name, **kw)
-        y, st = simulate_exudyn(m, xs, IntegratorSettings(step_s=1e-3, spectral_radius=1.0))
+        rig_module.position_marker = marker_fn
+        try:
+            m = build(name, args.mesh, exudyn_mesh="used")
+        finally:
+            rig_module.position_marker = position_marker
+        y, st = simulate_exudyn(m, xs, settings)
         e = band_limited_rms_error(y, ref[:, : xs.size])
-        print(f"[2] Exudyn full model, h = 1 ms, rho 1, {args.exudyn_seconds:.0f} s, {label}: "
-              f"{st['real_time_factor']:.3f}x wall / {st['cpu_real_time_factor']:.3f}x CPU real time, "
-              f"{st.get('newton_iterations', 0) / st['steps']:.2f} Newton it/step; error < 70 Hz {fmt(e)}", flush=True)
-        res[f"exudyn_{label[:5]}"] = (st["real_time_factor"], st["cpu_real_time_factor"], float(np.max(e)))
+        print(f"[2] Exudyn full model, h = {1e3 * settings.step_s:.4g} ms, rho {settings.radius(True)}, "
+              f"{args.exudyn_seconds:.3g} s, {label}: {st['real_time_factor']:.3f}x wall / "
+              f"{st['cpu_real_time_factor']:.3f}x CPU real time, {1e6 * st['cpu_s'] / st['steps']:.0f} us CPU "
+              f"per step, {st.get('newton_iterations', 0) / st['steps']:.2f} Newton it/step; error < 70 Hz "
+              f"{fmt(e)}; per channel "
+              + " ".join(f"{n}={100 * v:.1f}" for n, v in zip(lin.sensor_names, e, strict=True)), flush=True)
+        res[f"exudyn_{label}"] = (st["real_time_factor"], st["cpu_real_time_factor"], float(np.max(e)))
 
     for h in args.reduced_steps:
         y, st = simulate_exudyn_reduced(lin, model.drive, IntegratorSettings(step_s=h))
@@ -147,6 +168,7 @@ def bench(name: str, args) -> dict:
 def main(argv=None) -> int:
     p = argparse.ArgumentParser(description=__doc__.splitlines()[0])
     p.add_argument("--models", nargs="+", default=["mini", "model1"])
+    p.add_argument("--mesh", default="production", help="chassis mesh of model1-3 (coarse, production)")
     p.add_argument("--duration", type=float, default=80.0)
     p.add_argument("--exudyn-seconds", type=float, default=5.0)
     p.add_argument("--reduced-steps", type=float, nargs="+", default=[1e-3, 1.0 / 8e3, 1.0 / 16e3, 1.0 / 32e3])

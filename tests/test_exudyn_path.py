@@ -121,11 +121,36 @@ def test_position_markers_of_the_spherical_joints_keep_the_linearised_system(mon
         return model, modal.linearize(model)
 
     fast_model, fast = lin()
-    kinds = {str(fast_model.mbs.GetMarker(int(fast_model.mbs.GetObject(fast_model.joints[j])["markerNumbers"][1]))
-                 ["markerType"]) for j in ("strut_left_frame", "front_strut_frame", "foundation_rear_left")}
+    mbs = fast_model.mbs
+    frame_side = [int(mbs.GetObject(fast_model.joints[j])["markerNumbers"][1])
+                  for j in ("strut_left_frame", "front_strut_frame", "foundation_rear_left")]
+    kinds = {str(mbs.GetMarker(m)["markerType"]) for m in frame_side}
     assert kinds == {"SuperElementPosition"}
     monkeypatch.setattr(rig_module, "position_marker", lambda mbs, marker: marker)
     _, rigid = lin()
     for name in ("mass", "damping", "stiffness", "b0", "b1", "b2", "sensor_output", "sensor_drive"):
         a, b = getattr(fast, name), getattr(rigid, name)
         np.testing.assert_allclose(a, b, rtol=0, atol=1e-10 * np.abs(b).max(), err_msg=name)
+
+
+def test_single_newton_iteration_gives_the_converged_accelerations_on_the_linear_rig():
+    """The rig with linear CMS bodies is linear in its small motion: one iteration per step is enough."""
+    from exudyn_study.model import build_model_from_bodies
+    from exudyn_study.simulate import (
+        IntegratorSettings,
+        band_limited_rms_error,
+        prepare_drive,
+        simulate_exudyn,
+    )
+
+    def run(single):
+        model = build_model_from_bodies(mini_bodies(), 1, damping="constant-2", sensors=FRAME_SENSORS,
+                                        exudyn_mesh="used")
+        return simulate_exudyn(model, x, IntegratorSettings(single_iteration=single))
+
+    x = prepare_drive("white-noise", 1.0, seed=4, ramp_s=0.05)[:251]
+    converged, st_c = run(False)
+    single, st_s = run(True)
+    assert st_s["newton_iterations"] == st_s["steps"] < st_c["newton_iterations"]
+    strong = _strong(converged)
+    assert band_limited_rms_error(single, converged)[strong].max() < 1e-3
