@@ -34,30 +34,34 @@ import numpy as np
 
 from ..blas import one_blas_thread
 from ..errors import InputError
+from .rig_candidates import (
+    RIG_CANDIDATES,
+    CandidateContext,
+    register_rig_candidate,
+    sensor_component,
+    unregister_rig_candidate,
+)
 from .rig_compare import (
     BANDS_HZ,
     METRIC,
     band_filter,
+    drive_spectra,
     prepare,
     relative_errors,
     significance_map,
     summary_error,
 )
 from .rig_hypotheses import (
-    AddedMassHypothesis,
-    AffineHypothesis,
     Hypothesis,
-    LocalElementHypothesis,
-    ModalDampingHypothesis,
     NonlinearSystem,
-    SensorGainHypothesis,
     log_bounds,
+    model_system,
     to_params,
     to_x,
 )
 from .schema import Diagnosis, Finding
 
-__all__ = ["diagnose_rig", "RigDiagnosisSettings"]
+__all__ = ["diagnose_rig", "RigDiagnosisSettings", "register_rig_candidate", "unregister_rig_candidate"]
 
 log = logging.getLogger(__name__)
 
@@ -67,12 +71,19 @@ class RigDiagnosisSettings:
 
     train_duration_s: float = 40.0  # training seconds used for fitting (per recording)
     screen_duration_s: float = 12.0  # seconds of the first training recording used for screening
+    screen_nfev: int = 6  # function evaluations of the short screening fit (several parameters)
+    min_screen_share: float = 0.2  # fit only candidates screened at >= this share of the best score
     n_fit: int = 4  # candidates fitted in full after screening
+    fit_nfev: int = 30  # function evaluations of a full fit
+    n_fit_simulated: int = 2  # of the n_fit, at most this many simulated in time (nonlinear)
+    fit_nfev_simulated: int = 15  # function evaluations of a nonlinear (time-simulated) fit
+    train_duration_nonlinear_s: float = 15.0  # training seconds per recording of a nonlinear fit
     min_improvement: float = 0.3  # a finding must cut the training error by this share
-    # ... and leave less than this relative error: a fit that only switches the response off
-    # (error 1) is no explanation
-    max_error_after: float = 0.7
-    max_findings: int = 3  # rounds of locate-name-fit
+    # ... and its model must still respond: a fit that only switches the response off (the
+    # simulated rms a small share of the measured one) is no explanation
+    min_response_ratio: float = 0.3
+    max_findings: int = 8  # rounds of locate-name-fit
+    time_budget_s: float = 540.0  # no new round once it would end after this (one diagnosis < 10 min)
     max_relative_std: float = 0.3
     min_effect: float = 0.005
     p_value: float = 1e-3
@@ -129,6 +140,7 @@ class _Evaluator:
         self.sensor_names = tuple(sensor_names)
         self.idx = [np.array([self.sensor_names.index(c) for c in r.channels]) for r in recordings]
         self._cache = {}
+        self.offset = None  # per recording: added to linear simulations (see _set_offsets)
         self.spectra = []
         for r in recordings:
             n = r.drive.samples.size
@@ -156,6 +168,8 @@ class _Evaluator:
                 full = np.zeros((idx.size, n_fft // 2 + 1), dtype=complex)
                 full[:, : f.size] = h * spec[None, :]
                 base.append(np.fft.irfft(full, n_fft, axis=1)[:, :n])
+            if self.offset is not None:
+                base = [b + o for b, o in zip(base, self.offset, strict=True)]
             self._cache = {key: (lin, base)}
         if gains is None:
             return base
@@ -178,6 +192,8 @@ class _Evaluator:
             self._cache = {key: (lin, base)}
         else:
             base = [simulate_linear(lin, r.drive)[idx] for r, idx in zip(self.recs, self.idx, strict=True)]
+            if self.offset is not None:
+                base = [b + o for b, o in zip(base, self.offset, strict=True)]
             self._cache = {key: (lin, base)}
         return base if gains is None else [b * gains[:, None] for b in base]
 
@@ -192,7 +208,7 @@ class _Evaluator:
         return [relative_errors(r, s) for r, s in zip(self.recs, sims, strict=True)]
 
 
-def _fit(h: Hypothesis, ev: _Evaluator, channels, max_nfev=40):
+def _fit(h: Hypothesis, ev: _Evaluator, channels, max_nfev=30):
     from scipy.optimize import least_squares
 
     pos, lo, hi = log_bounds(h)
@@ -213,7 +229,7 @@ def _fit(h: Hypothesis, ev: _Evaluator, channels, max_nfev=40):
     except np.linalg.LinAlgError:
         std_x = np.full(p.size, np.inf)
     std_p = np.where(pos, p * std_x, std_x)
-    at_bound = np.any((res.x <= lo + 1e-3) | (res.x >= hi - 1e-3))
+    at_bound = (res.x <= lo + 1e-3) | (res.x >= hi - 1e-3)
     return p, std_p, rss, at_bound, res.nfev
 
 
@@ -245,13 +261,30 @@ def _aic(rss: float, k: int, n_eff: int) -> float:
     return n_eff * math.log(max(rss, 1e-300) / n_eff) + 2 * k
 
 
-def _sensor_component(name: str) -> str | None:
-    from ..sensors import SENSORS
+def _response_ratio(recs, sims) -> float:
+    """Median over channels of the band-limited rms of the simulation over that of the measurement."""
+    ratios = [
+        np.sqrt(np.mean(band_filter(s_) ** 2, axis=1)) * r.scale for r, s_ in zip(recs, sims, strict=True)
+    ]
+    return float(np.median(np.concatenate(ratios)))
 
-    for s in SENSORS:
-        if s.name == name:
-            return s.component
-    return None
+
+def _set_offsets(evaluators, system) -> None:
+    """Carry the current model's nonlinear elements into linear candidates (first order).
+
+    With local nonlinear elements in the current model, a linear candidate's response is
+    taken as its linear response plus the current model's nonlinear correction (exact
+    nonlinear minus linear-tangent simulation, per recording): the correction's change with
+    a linear candidate is of second order. Exact simulations of the accepted model follow.
+    """
+    for ev in evaluators:
+        ev.offset = None
+        ev._cache = {}
+        if isinstance(system, NonlinearSystem):
+            nonlinear = ev.simulate_exact(system)
+            tangent = ev.simulate(system.lin)
+            ev.offset = [a - b for a, b in zip(nonlinear, tangent, strict=True)]
+            ev._cache = {("exact", id(system)): (system, nonlinear)}  # compare() needs them next
 
 
 def _modes(lin):
@@ -313,11 +346,9 @@ def diagnose_rig(
         No training or held-out recording, different sensor layouts, no drive channel,
         channels the model lacks.
     """
-    from ..modal import linearize
     from ..model import build_model, build_model_from_bodies
     from ..physics import CATALOGUE
     from ..physics.entries import location_point
-    from ..physics.nonlinear import marker_displacement_map
     from ..rig_cli import parse_damping
 
     st = settings or RigDiagnosisSettings()
@@ -365,7 +396,7 @@ def diagnose_rig(
         )
         markers = {loc: location_point(model, loc) for loc in locations}
         model.assemble()
-        return locations, markers, linearize(model)
+        return locations, markers, model_system(model)
 
     say("building the nominal model")
     model = build()
@@ -377,8 +408,15 @@ def diagnose_rig(
     channels = train_recs[0].channels
     pad = _decay_time(lin0)
     ev_train = _Evaluator(train_recs, sensor_names, pad, exact=True)
+    ev_train_nonlinear = _Evaluator(
+        [prepare(r, sensor_names, n, st.train_duration_nonlinear_s) for n, r in tr],
+        sensor_names,
+        pad,
+        exact=True,
+    )
     ev_hold = _Evaluator(hold_recs, sensor_names, pad, exact=True)
     ev_screen = _Evaluator(screen_recs, sensor_names, pad)
+    evaluators = (ev_train, ev_train_nonlinear, ev_hold, ev_screen)
     p_cell = st.p_value / (len(tr) + len(ho))
 
     def compare(lin, gains):
@@ -413,6 +451,7 @@ def diagnose_rig(
         "residual_effect": [m.effect.round(4).tolist() for m in maps],
         "channels": list(channels),
         "candidates": [],
+        "rounds": [],
     }
     if figures is not None:
         _figures_before(figures, tr + ho, train_recs + hold_recs, sims_tr + sims_ho, lin0, sensor_names, maps)
@@ -422,116 +461,102 @@ def diagnose_rig(
         meta["wall_s"] = time.perf_counter() - t_start
         say("no significant mismatch: no missing physics found")
         return Diagnosis(False, [], [], meta)
-    level_dependent = _level_dependent(
-        train_recs + hold_recs, sims_tr + sims_ho, np.flatnonzero(significant.any(axis=1))
-    )
 
     findings, unexplained = [], []
-    lin_r, gains_r, model_r, located = lin0, ones, model, []
+    distortion = _distortion_shares(train_recs + hold_recs)
+    if distortion is not None:
+        meta["nonlinear_share"] = dict(zip(channels, np.round(distortion[0], 5).tolist(), strict=True))
+    sys_r, gains_r, model_r, located = lin0, ones, model, []
+    _set_offsets(evaluators, sys_r)
+    stop_reason = f"mismatch left after {st.max_findings} rounds (the most this diagnosis runs)"
+    round_s = 0.0
     for round_no in range(st.max_findings):
+        elapsed = time.perf_counter() - t_start
+        if round_no > 0 and elapsed + round_s > st.time_budget_s:
+            stop_reason = (
+                f"mismatch left after {len(findings)} findings: the time budget of {st.time_budget_s:.0f} s "
+                f"would be exceeded by another round ({elapsed:.0f} s used, the last round took "
+                f"{round_s:.0f} s)"
+            )
+            break
+        t_round = time.perf_counter()
+        lin_r = getattr(sys_r, "lin", sys_r)
         strength = np.max([np.where(m.significant, m.effect, 0.0) for m in maps], axis=0).max(axis=1)
         located = [channels[i] for i in np.argsort(-strength) if significant[i].any()]  # strongest first
         bands = [BANDS_HZ[j] for j in np.flatnonzero(significant.any(axis=0))]
         band_hz = (min(b[0] for b in bands), max(b[1] for b in bands))
+        # level dependence of what is left (a linear finding can uncover a nonlinear one)
+        level_dependent = _level_dependent(
+            train_recs + hold_recs, sims_tr + sims_ho, np.flatnonzero(significant.any(axis=1)), distortion
+        )
         done = {(name, loc) for name, loc, _ in accepted} | {
-            ("sensor_gain", f.location["sensors"][0]) for f in findings if f.physics == "sensor_gain"
+            (f.physics, f.location["sensors"][0]) for f in findings if f.physics == "sensor_gain"
         }
 
-        # 3 name: candidates and screening --------------------------------------------------
+        # 3 name: candidates from the registry, then screening --------------------------------
+        ctx = CandidateContext(
+            model=model_r,
+            lin=lin_r,
+            build=build_current,
+            locations=locations,
+            markers=markers,
+            sensor_names=sensor_names,
+            located=located,
+            level_dependent=level_dependent,
+            done=done,
+            say=say,
+            nonlinear_sensors=_nonlinear_sensors(distortion, channels, located),
+        )
         hyps: list[Hypothesis] = []
-        if want("added_mass"):
-            seen = []
-            for loc in locations:
-                marker, pos = markers[loc]
-                if any(np.linalg.norm(pos - q) < 1e-6 for q in seen):
-                    continue  # several sensors (X, Y, Z) at one point: one candidate
-                seen.append(pos)
-                comp = _sensor_component(loc) if loc in model_r.sensors else "frame"
-                near = [
-                    s_
-                    for s_ in sensor_names
-                    if np.linalg.norm(model_r.sensors[s_].sensor.position_m - pos) < 0.3
-                ]
-                here = [s_ for s_ in sensor_names if np.linalg.norm(markers[s_][1] - pos) < 1e-6]
-                hyps.append(
-                    AddedMassHypothesis(
-                        loc,
-                        lin_r,
-                        marker_displacement_map(model_r, marker),
-                        component=comp,
-                        sensors=tuple(here if loc in model_r.sensors else near),
-                        interface=None if loc in model_r.sensors else loc.split(".", 1)[1],
+        for cand in list(RIG_CANDIDATES.values()):
+            if not want(cand.physics) or (cand.needs_level_dependence and not level_dependent):
+                continue
+            made = list(cand.factory(ctx) or [])
+            for h in made:
+                if not isinstance(h, Hypothesis):
+                    raise InputError(
+                        f"rig candidate {cand.physics!r}: its factory returned {h!r}; expected Hypothesis "
+                        "objects (exudyn_study.diagnose.rig_hypotheses)"
                     )
-                )
-        if want("modal_damping"):
-            for body, handle in model_r.bodies.items():
-                if body == "rear_foundation" or ("modal_damping", body) in done:
-                    continue
-                idx = np.asarray(model_r.mbs.systemData.GetNodeLTGODE2(handle.modal_node), dtype=int)
-                freq = np.asarray(handle.body.frequencies_hz, dtype=float)
-                n_rigid = idx.size - freq.size  # linear CMS bodies carry 6 rigid-body coordinates first
-                idx = idx[n_rigid:][freq <= MODAL_DAMPING_MAX_HZ]
-                hyps.append(ModalDampingHypothesis(body, lin_r, idx, component=body, sensors=tuple(located)))
-        if want("sensor_gain"):
-            for ch in located:
-                if ("sensor_gain", ch) not in done:
-                    hyps.append(
-                        SensorGainHypothesis(ch, lin_r, component=_sensor_component(ch), sensors=(ch,))
-                    )
-        if want("drive_linkage_compliance") and ("drive_linkage_compliance", "drive_linkage") not in done:
-            say("linearising the drive-linkage hypothesis")
-            hyps.append(
-                AffineHypothesis(
-                    "drive_linkage_compliance",
-                    None,
-                    entry("drive_linkage_compliance"),
-                    build_current,
-                    {"stiffness_n_per_m": 2e7, "damping_n_s_per_m": 2e3, "mass_kg": 20.0},
-                    {"stiffness_n_per_m": 1e6, "damping_n_s_per_m": 100.0, "mass_kg": 1.0},
-                    component="rig drive linkage",
-                    sensors=tuple(located),
-                    interface="piston_linkage",
-                )
-            )
-        if (
-            level_dependent
-            and want("bushing_stiffening")
-            and ("bushing_stiffening", "bracket_left") not in done
-        ):
-            try:
-                say("linearising the bushing-stiffening hypothesis")
-                hyps.append(
-                    LocalElementHypothesis(
-                        "bushing_stiffening",
-                        "bracket_left",
-                        entry("bushing_stiffening"),
-                        build_current,
-                        {"cubic_stiffness_n_per_m3": 1e11},
-                        _cubic_laws,
-                        component="bracket_left",
-                        sensors=tuple(s_ for s_ in sensor_names if s_.startswith("ASV")),
-                        interface="bracket_left",
-                    )
-                )
-            except InputError as exc:  # the model has no rubber bushing region
-                log.info("bushing_stiffening not applicable: %s", exc)
+            hyps += made
+        if not hyps:
+            stop_reason = "no catalogue candidate applies to the located mismatch"
+            break
         for h in hyps:
             h.base_gains = gains_r
         say(f"round {round_no + 1}: screening {len(hyps)} candidates")
         r0 = ev_train.residual_vector(lin_r, gains_r)
         r0_screen = ev_screen.residual_vector(lin_r, gains_r)
-        scores = [_screen(h, ev_screen, channels, r0_screen) for h in hyps]
-        order = np.argsort(scores)[::-1]
+        scores = [_screen(h, ev_screen, channels, r0_screen, st.screen_nfev) for h in hyps]
+        order = [i for i in np.argsort(scores)[::-1] if scores[i] >= st.min_screen_share * max(scores)]
         # 4 fit the best candidates ----------------------------------------------------------
         n_eff = _effective_samples(ev_train)
         rss0 = float(r0 @ r0)
         aic0 = _aic(rss0, 0, n_eff)
         fitted = []
-        for i in order[: st.n_fit]:
+        chosen, n_simulated = [], 0
+        for i in order:
+            if len(chosen) == st.n_fit:
+                break
+            if not hyps[i].kind_linear:
+                if n_simulated == st.n_fit_simulated:
+                    continue
+                n_simulated += 1
+            chosen.append(i)
+        for i in chosen:
             h = hyps[i]
             say(f"fitting {h.label} (screening score {scores[i]:.3f})")
-            p, std, rss, at_bound, nfev = _fit(h, ev_train, channels)
+            if h.kind_linear:
+                p, std, rss, at_bound, nfev = _fit(h, ev_train, channels, st.fit_nfev)
+            else:  # simulated in time: fitted on shorter records, judged on the full training records
+                p, std, _, at_bound, nfev = _fit(h, ev_train_nonlinear, channels, st.fit_nfev_simulated)
             rel_std = np.abs(std) / np.maximum(np.abs(p), 1e-300)
+            firm = np.array([n not in h.may_vanish for n in h.names])
+            good = (rel_std < st.max_relative_std) & ~at_bound
+            sys_p, gains_p = h.system(p), _gains(h, p, channels)
+            r_fit = ev_train.residual_vector(sys_p, gains_p)
+            rss = float(r_fit @ r_fit)
+            sims_fit = ev_train.simulate(sys_p, gains_p)
             fitted.append(
                 {
                     "h": h,
@@ -539,9 +564,11 @@ def diagnose_rig(
                     "std": std,
                     "rss": rss,
                     "aic": _aic(rss, p.size, n_eff),
-                    "identifiable": bool(np.all(rel_std < st.max_relative_std) and not at_bound),
+                    # every firm parameter identifiable, and at least one parameter
+                    "identifiable": bool(np.all(good[firm]) and np.any(good)),
                     "improvement": 1.0 - math.sqrt(rss / rss0),
                     "error_after": math.sqrt(rss / len(train_recs)),
+                    "response_ratio": _response_ratio(train_recs, sims_fit),
                     "score": float(scores[i]),
                     "nfev": nfev,
                 }
@@ -551,8 +578,8 @@ def diagnose_rig(
                 f["rejected"] = "not identifiable"
             elif f["improvement"] < st.min_improvement:
                 f["rejected"] = "explains too little"
-            elif f["error_after"] > st.max_error_after:
-                f["rejected"] = "the fitted model still misses most of the response"
+            elif f["response_ratio"] < st.min_response_ratio:
+                f["rejected"] = "the fitted model switches the response off"
             else:
                 f["rejected"] = None
         meta["candidates"] += [
@@ -566,33 +593,32 @@ def diagnose_rig(
                 "identifiable": f["identifiable"],
                 "rejected": f["rejected"],
                 "training_error_after": round(f["error_after"], 4),
+                "response_ratio": round(f["response_ratio"], 4),
                 "parameters": dict(zip(f["h"].names, np.round(f["p"], 6).tolist(), strict=True)),
             }
             for f in fitted
         ]
         ok = [f for f in fitted if f["rejected"] is None]
         if not ok:
-            unexplained.append(
-                _unexplained(
-                    significant,
-                    channels,
-                    level_dependent,
-                    "no catalogue entry explains it: "
-                    + "; ".join(
-                        f"{f['h'].label} improves {100 * f['improvement']:.0f} % ({f['rejected']})"
-                        for f in fitted
-                    ),
-                )
+            stop_reason = "no catalogue entry explains it: " + "; ".join(
+                f"{f['h'].label} improves {100 * f['improvement']:.0f} % ({f['rejected']})" for f in fitted
             )
             break
         best = min(ok, key=lambda f: f["aic"])
         h, p = best["h"], best["p"]
-        lin1, gains1 = h.system(p), _gains(h, p, channels)
-        sims_tr1, sims_ho1, maps1, significant1 = compare(lin1, gains1)
-        err_tr_b = [summary_error(e) for e in ev_train.errors(sims_tr)]
+        # carry the finding into the model (exact: a nonlinear model is simulated in time)
+        sys_before = sys_r
+        if h.carry == "gains":
+            gains_r = _gains(h, p, channels)
+        else:
+            accepted.append(h.carried(p))
+            model_r = build_current()
+            locations, markers, sys_r = assembled(model_r)
+        _set_offsets(evaluators, sys_r)
+        sims_tr1, sims_ho1, maps1, significant1 = compare(sys_r, gains_r)
         per_ho0, per_ho1 = ev_hold.errors(sims_ho), ev_hold.errors(sims_ho1)
         fit = {
-            "train_before": float(np.mean(err_tr_b)),
+            "train_before": float(np.mean([summary_error(e) for e in ev_train.errors(sims_tr)])),
             "train_after": float(np.mean([summary_error(e) for e in ev_train.errors(sims_tr1)])),
             "holdout_before": float(np.mean([summary_error(e) for e in per_ho0])),
             "holdout_after": float(np.mean([summary_error(e) for e in per_ho1])),
@@ -615,7 +641,14 @@ def diagnose_rig(
                 location={"sensors": list(h.sensors), "component": h.component, "interface": h.interface},
                 band_hz=band_hz,
                 level_dependent=level_dependent,
-                explanation=_explain(h, p, best["std"], lin_r, lin1, located),
+                explanation=_explain(
+                    h,
+                    p,
+                    best["std"],
+                    getattr(sys_before, "lin", sys_before),
+                    getattr(sys_r, "lin", sys_r),
+                    located,
+                ),
                 parameters=params,
                 fit=fit,
             )
@@ -624,51 +657,26 @@ def diagnose_rig(
             f"finding {len(findings)}: {h.label}, held-out error {fit['holdout_before']:.4f} -> "
             f"{fit['holdout_after']:.4f}"
         )
-        # carry the finding into the model of the next round
-        if isinstance(h, LocalElementHypothesis):
-            # later rounds add linear candidates only: after a nonlinear finding, check what is left
-            sims_tr, sims_ho, maps, significant = sims_tr1, sims_ho1, maps1, significant1
-            lin_r, gains_r = lin1, gains1
-            if significant.any():
-                unexplained.append(
-                    _unexplained(
-                        significant,
-                        channels,
-                        level_dependent,
-                        "mismatch left after the nonlinear finding above (later rounds "
-                        "after a nonlinear finding are not modelled)",
-                    )
-                )
-            break
-        if h.physics == "sensor_gain":
-            gains_r = gains1
-            lin_r = lin1
-        else:
-            values = dict(zip(h.names, (float(v) for v in p), strict=True))
-            if h.physics == "modal_damping":
-                values["max_frequency_hz"] = MODAL_DAMPING_MAX_HZ
-            accepted.append(
-                (
-                    h.physics,
-                    h.location if h.physics != "drive_linkage_compliance" else "drive_linkage",
-                    values,
-                )
-            )
-            model_r = build_current()
-            locations, markers, lin_r = assembled(model_r)
         sims_tr, sims_ho, maps, significant = sims_tr1, sims_ho1, maps1, significant1
+        round_s = time.perf_counter() - t_round
+        meta["rounds"].append({"round": round_no + 1, "candidates": len(hyps), "wall_s": round(round_s, 1)})
         if not significant.any():
             break
-    else:
-        if significant.any():
-            unexplained.append(
-                _unexplained(
-                    significant,
-                    channels,
-                    level_dependent,
-                    f"mismatch left after {len(findings)} findings (the most this diagnosis models)",
-                )
+    if significant.any():
+        unexplained.append(
+            _unexplained(
+                significant,
+                channels,
+                _level_dependent(
+                    train_recs + hold_recs,
+                    sims_tr + sims_ho,
+                    np.flatnonzero(significant.any(axis=1)),
+                    distortion,
+                ),
+                stop_reason,
             )
+        )
+    lin_r = getattr(sys_r, "lin", sys_r)
     if findings:
         meta["final_holdout_error"] = [summary_error(e) for e in ev_hold.errors(sims_ho)]
         meta["relative_pseudo_damage"] = _damage(hold_recs, sims_ho_nominal, sims_ho)
@@ -686,16 +694,6 @@ def diagnose_rig(
     return Diagnosis(True, findings, unexplained, meta)
 
 
-def _cubic_laws(p, elements):
-    """Cubic stiffening laws with coefficient ``p[0]`` for every element of the hypothesis."""
-    from ..physics.nonlinear import CubicStiffening
-
-    return [CubicStiffening(float(p[0])) for _ in elements]
-
-
-SCREEN_GRID_NONLINEAR = {"bushing_stiffening": (1e12, 1e13, 1e14, 1e15)}
-
-
 def _gains(h: Hypothesis, p, channels):
     """Return the candidate's output gains times those already found (None: all one)."""
     base = getattr(h, "base_gains", None)
@@ -703,18 +701,6 @@ def _gains(h: Hypothesis, p, channels):
     if g is None:
         return base
     return g if base is None else g * base
-
-
-#: body modes whose damping the modal-damping candidate scales (free-free frequency, Hz): the
-#: ones that shape the 3-60 Hz response
-MODAL_DAMPING_MAX_HZ = 200.0
-
-#: screening grids of one-parameter candidates (values tried; the best counts)
-SCREEN_GRID = {
-    "added_mass": (2.0, 6.0, 15.0, 40.0, 100.0),
-    "modal_damping": (0.3, 0.6, 1.6, 3.0),
-    "sensor_gain": (0.7, 0.85, 1.15, 1.4),
-}
 
 
 def _model_t(lin, freq, channels, sensor_names, gains=None):
@@ -730,24 +716,20 @@ def _model_t(lin, freq, channels, sensor_names, gains=None):
 
 def _figures_before(figures, named, recs, sims, lin0, sensor_names, maps):
     """Residual map (model error power / noise power per bin), measured and nominal transmissibilities."""
-    from scipy import signal as sps
-
     k0 = 1000
     labels = [str(n).rsplit("/", 1)[-1] for n, _ in named]
     rmaps, measured, levels = [], {}, []
     freq = None
     for lab, r, s in zip(labels, recs, sims, strict=True):
         u = r.drive.samples[k0:]
-        e = (r.measured - s)[:, k0:]
-        f, suu = sps.welch(u, 1000.0, nperseg=4096)
-        _, sue = sps.csd(u[None, :], e, 1000.0, nperseg=4096)
-        _, see = sps.welch(e, 1000.0, nperseg=4096)
-        _, suy = sps.csd(u[None, :], r.measured[:, k0:], 1000.0, nperseg=4096)
+        res = drive_spectra(u, (r.measured - s)[:, k0:])
+        meas = drive_spectra(u, r.measured[:, k0:])
+        f = res.f
         band = (f >= 3.0) & (f <= 60.0)
-        g2 = np.clip(np.abs(sue) ** 2 / (suu[None, :] * see + 1e-300), 0.0, 1.0 - 1e-9)
+        g2 = res.coherence
         rmaps.append((g2 / (1.0 - g2))[:, band])
         w2 = (2 * np.pi * f[band]) ** 2
-        measured[lab] = (suy[:, band] / suu[None, band]) / (-w2[None, :])
+        measured[lab] = meas.h1[:, band] / (-w2[None, :])
         freq = f[band]
         levels.append(float(np.std(np.gradient(np.gradient(u, 1e-3), 1e-3))))
     figures.update(
@@ -764,44 +746,98 @@ def _figures_before(figures, named, recs, sims, lin0, sensor_names, maps):
     }
 
 
-def _screen(h: Hypothesis, ev: _Evaluator, channels, r0: np.ndarray) -> float:
-    """Share of the training residual the candidate explains at its best screening-grid value (0-1).
+def _screen(h: Hypothesis, ev: _Evaluator, channels, r0: np.ndarray, nfev: int = 6) -> float:
+    """Share of the training residual the candidate explains at its best screening value (0-1).
 
-    One-parameter candidates are evaluated on :data:`SCREEN_GRID` and refined by a
-    parabola in the (log) parameter through the best point and its neighbours; candidates
-    with several parameters get score 1 (always fitted).
+    A candidate with a :attr:`~exudyn_study.diagnose.rig_hypotheses.Hypothesis.screen_grid`
+    is evaluated on it (scalars: values of its one parameter, refined by a parabola in the
+    log parameter through the best point and its neighbours; tuples: whole parameter
+    vectors, a linear candidate then refined by a short fit from the best of them: a
+    resonator's residual has a local minimum per mode it can tune to). Otherwise a short
+    least-squares fit (``nfev`` evaluations) on the screening recording scores it. The best
+    value becomes the start of the full fit.
     """
-    grid = SCREEN_GRID.get(h.physics) or SCREEN_GRID_NONLINEAR.get(h.physics)
-    if grid is None or len(h.names) != 1:
-        return 1.0
     rss0 = float(r0 @ r0)
-    xs = np.log(np.asarray(grid))
-    vals = []
-    for v in grid:
-        r = ev.residual_vector(h.system([v]), _gains(h, [v], channels))
-        vals.append(float(r @ r))
+    if rss0 <= 0:
+        return 0.0
+
+    def rss(p):
+        r = ev.residual_vector(h.system(p), _gains(h, p, channels))
+        return float(r @ r)
+
+    grid = h.screen_grid
+    if grid is None:
+        p, _, value, _, _ = _fit(h, ev, channels, nfev)
+        h.start = np.clip(p, h.lower, h.upper)
+        return max(0.0, 1.0 - value / rss0)
+    points = [np.atleast_1d(np.asarray(g, dtype=float)) for g in grid]
+    vals = [rss(p) for p in points]
     k = int(np.argmin(vals))
-    best = vals[k]
-    if 0 < k < len(grid) - 1:
+    best, h.start = vals[k], points[k]
+    if len(h.names) > 1 and h.kind_linear:
+        # several parameters: a short fit from the best grid point
+        p, _, value, _, _ = _fit(h, ev, channels, nfev)
+        if value < best:
+            best, h.start = value, np.clip(p, h.lower, h.upper)
+        return max(0.0, 1.0 - best / rss0)
+    if len(h.names) == 1 and 0 < k < len(grid) - 1:
+        xs = np.log([float(p[0]) for p in points])
         a, b, c = vals[k - 1], vals[k], vals[k + 1]
         x0, x1, x2 = xs[k - 1], xs[k], xs[k + 1]
         denom = (x0 - x1) * (x0 - x2) * (x1 - x2)
         if denom != 0:
             A = (x2 * (b - a) + x1 * (a - c) + x0 * (c - b)) / denom
             B = (x2**2 * (a - b) + x1**2 * (c - a) + x0**2 * (b - c)) / denom
-            if A > 0:
-                xv = -B / (2 * A)
-                if x0 < xv < x2:
-                    v = float(np.exp(xv))
-                    r = ev.residual_vector(h.system([v]), _gains(h, [v], channels))
-                    best = min(best, float(r @ r))
-                    h.start = np.array([v])
-                    return max(0.0, 1.0 - best / rss0)
-    h.start = np.array([grid[k]])
+            if A > 0 and x0 < -B / (2 * A) < x2:
+                v = np.array([float(np.exp(-B / (2 * A)))])
+                value = rss(v)
+                if value < best:
+                    best, h.start = value, v
     return max(0.0, 1.0 - best / rss0)
 
 
-def _level_dependent(recs, sims, rows) -> bool:
+def _distortion_shares(recs) -> tuple | None:
+    """Per channel, the share of the response a linear structure cannot produce, from two levels of one drive.
+
+    If two recordings' drives are scaled copies of each other in time (the thesis's test
+    signal at 100 % and 50 %: correlation > 0.9999), any linear structure responds to the
+    stronger one with exactly the scaled response of the weaker one, so
+    ``y_b - c y_a`` (``c`` the drives' least-squares scale) holds only the level-dependent
+    (nonlinear) part and noise: no model is needed. Returns
+    ``rms(y_b - c y_a) / rms(y_b)`` per channel (band-limited, 3-60 Hz) of the pair with
+    the largest level ratio, or None without such a pair.
+    """
+    best = None
+    for a in recs:
+        for b in recs:
+            if b.drive_rms_m < 1.2 * a.drive_rms_m:
+                continue
+            n = min(a.drive.samples.size, b.drive.samples.size)
+            ua, ub = a.drive.samples[:n], b.drive.samples[:n]
+            if float(np.corrcoef(ua, ub)[0, 1]) < 0.9999:
+                continue
+            c = float(ub @ ua / (ua @ ua))
+            if best is None or c > best[0]:
+                best = (c, a, b, n)
+    if best is None:
+        return None
+    c, a, b, n = best
+    rows_a = [a.channels.index(ch) for ch in b.channels]
+    d = band_filter(b.measured[:, :n] - c * a.measured[rows_a, :n])
+    return np.sqrt(np.mean(d**2, axis=1)) * b.scale, b
+
+
+def _nonlinear_sensors(distortion, channels, located) -> list:
+    """Located sensors with a local nonlinear share (:func:`_distortion_shares`), strongest first."""
+    if distortion is None:
+        return []
+    share, strong = distortion
+    local = share > max(2.0 * float(np.median(share)), 0.005)
+    by_name = {c: float(v) for c, v, ok in zip(strong.channels, share, local, strict=True) if ok}
+    return sorted((c for c in located if c in by_name), key=lambda c: -by_name[c])
+
+
+def _level_dependent(recs, sims, rows, distortion=None) -> bool:
     """Whether the mismatch at the channels ``rows`` grows with the drive level.
 
     Pairs of recordings whose drives have the same spectral shape (one a scaled copy of the
@@ -814,17 +850,26 @@ def _level_dependent(recs, sims, rows) -> bool:
     channels exceeds 1.5. Without such a pair, the H1 estimates of the lowest and highest
     level are compared (a bin counts where the difference exceeds 5 times its standard
     error and 5 % of the FRF; level dependent above 5 % of the bins).
-    """
-    from scipy import signal as sps
 
+    Besides, with ``distortion`` (:func:`_distortion_shares`: the model-free nonlinear share
+    per channel and the stronger recording), a channel among ``rows`` whose nonlinear share
+    is local (above twice the median over all channels and above 0.5 %) and at least half of
+    the current model's error there makes the mismatch level dependent: once linear findings
+    have explained most of the error at a nonlinear element, what is left there grows with
+    the level, even if other channels' linear error hides it in the median ratio.
+    """
     if len(rows) == 0 or len(recs) < 2:
         return False
+    if distortion is not None:
+        share, strong = distortion
+        k = next(i for i, r in enumerate(recs) if r is strong)
+        err = relative_errors(strong, sims[k])
+        local = (share > max(2.0 * float(np.median(share)), 0.005)) & (share > 0.5 * err)
+        if local[np.asarray(rows, dtype=int)].any():
+            return True
     k0 = 1000
-    est = []
-    for r in recs:
-        u = r.drive.samples[k0:]
-        f, suu = sps.welch(u, 1000.0, nperseg=4096)
-        est.append(suu)
+    spectra = [drive_spectra(r.drive.samples[k0:], r.measured[rows, k0:]) for r in recs]
+    f = spectra[0].f
     band = (f >= 5) & (f <= 55)
     errors = [relative_errors(r, s_)[rows] for r, s_ in zip(recs, sims, strict=True)]
     same_shape_pair = False
@@ -832,7 +877,7 @@ def _level_dependent(recs, sims, rows) -> bool:
         for b in range(len(recs)):
             if recs[b].drive_rms_m < 1.2 * recs[a].drive_rms_m:
                 continue
-            shape = np.log(est[b][band] / est[a][band])
+            shape = np.log(spectra[b].suu[band] / spectra[a].suu[band])
             if float(np.median(np.abs(shape - np.median(shape)))) > 0.2:
                 continue
             same_shape_pair = True
@@ -841,21 +886,11 @@ def _level_dependent(recs, sims, rows) -> bool:
                 return True
     if same_shape_pair:
         return False
-    lo, hi = min(recs, key=lambda r: r.drive_rms_m), max(recs, key=lambda r: r.drive_rms_m)
-    if hi.drive_rms_m < 1.2 * lo.drive_rms_m:
+    lo = min(range(len(recs)), key=lambda i: recs[i].drive_rms_m)
+    hi = max(range(len(recs)), key=lambda i: recs[i].drive_rms_m)
+    if recs[hi].drive_rms_m < 1.2 * recs[lo].drive_rms_m:
         return False
-    out = []
-    for r in (lo, hi):
-        u = r.drive.samples[k0:]
-        y = r.measured[rows, k0:]
-        f, suu = sps.welch(u, 1000.0, nperseg=4096)
-        _, suy = sps.csd(u[None, :], y, 1000.0, nperseg=4096)
-        _, syy = sps.welch(y, 1000.0, nperseg=4096)
-        n_d = max(2, 2 * u.size // 4096 - 1)
-        h = suy / suu[None, :]
-        coh = np.abs(suy) ** 2 / (suu[None, :] * syy + 1e-300)
-        out.append((h, np.abs(h) ** 2 * (1 - coh) / (2 * n_d * np.maximum(coh, 1e-6))))
-    (h0, v0), (h1, v1) = out
+    (h0, v0), (h1, v1) = ((spectra[i].h1, spectra[i].h1_variance()) for i in (lo, hi))
     z = np.abs(h1 - h0)[:, band] / np.sqrt(v0[:, band] + v1[:, band] + 1e-300)
     rel = np.abs(h1 - h0)[:, band] / np.maximum(np.abs(h0[:, band]), 1e-300)
     return bool(np.mean((z > 5) & (rel > 0.05)) > 0.05)
@@ -887,7 +922,7 @@ def _unexplained(cells, channels, level_dependent, text):
     rows = np.flatnonzero(cells.any(axis=1))
     cols = np.flatnonzero(cells.any(axis=0))
     sensors = [channels[i] for i in rows]
-    comps = sorted({_sensor_component(s) or "?" for s in sensors})
+    comps = sorted({sensor_component(s) or "?" for s in sensors})
     return {
         "location": {
             "sensors": sensors,
@@ -941,6 +976,23 @@ def _explain(h: Hypothesis, p, std, lin0, lin1, located) -> str:
             f"The left mudguard bracket's rubber bushing stiffens with amplitude: a cubic term of "
             f"{k3:.3g} +- {s3:.2g} N/m^3 across the pad (z and x) explains a mismatch at {where} that grows "
             f"with the drive level (the linear model fits the low level and misses the high one)."
+        )
+    if h.physics == "joint_stiffness":
+        kt, skt = v["stiffness_n_per_m"]
+        kr, skr = v["rotational_stiffness_n_m_per_rad"]
+        t, _ = v["damping_time_s"]
+        return (
+            f"The bolted joint {h.location} is not rigid: {kt:.3g} +- {skt:.2g} N/m in translation and "
+            f"{kr:.3g} +- {skr:.2g} N m/rad in rotation (damping time {t:.2g} s) move the modes that load "
+            f"it ({shifts or 'small shifts'}); the {h.component} sensors ({where}) see it."
+        )
+    if h.physics == "joint_friction":
+        k, _ = v["stuck_stiffness_n_per_m"]
+        f_slip, s_slip = v["slip_force_n"]
+        return (
+            f"The bolted joint {h.location} slips: a stuck contact of {k:.3g} N/m in its plane that slides "
+            f"above {f_slip:.3g} +- {s_slip:.2g} N softens and damps the modes that shear it as the drive "
+            f"level grows; sensors {where} see a mismatch that grows with level."
         )
     if h.physics == "modal_damping":
         f, s = v["factor"]

@@ -37,6 +37,8 @@ __all__ = [
     "BANDS_HZ",
     "METRIC",
     "summary_error",
+    "DriveSpectra",
+    "drive_spectra",
 ]
 
 RATE_HZ = 1000.0
@@ -140,6 +142,61 @@ def prepare(recording, sensor_names, name: str = "", max_duration_s: float | Non
     )
 
 
+@dataclass
+class DriveSpectra:
+    """Welch spectra of a drive ``u`` and responses ``y`` (rows): auto, cross, H1 and coherence.
+
+    Attributes
+    ----------
+    f : ndarray (n_f,)
+        Frequencies, Hz.
+    suu : ndarray (n_f,)
+    suy : ndarray (n_y, n_f)
+        Cross spectra drive -> response.
+    syy : ndarray (n_y, n_f)
+    n_segments : int
+        Independent segments (the degrees of freedom of the estimates).
+    """
+
+    f: np.ndarray
+    suu: np.ndarray
+    suy: np.ndarray
+    syy: np.ndarray
+    n_segments: int
+
+    @property
+    def h1(self) -> np.ndarray:
+        """H1 estimate ``suy / suu`` (response per unit drive)."""
+        return self.suy / self.suu[None, :]
+
+    @property
+    def coherence(self) -> np.ndarray:
+        """Magnitude-squared coherence, in [0, 1)."""
+        return np.clip(np.abs(self.suy) ** 2 / (self.suu[None, :] * self.syy + 1e-300), 0.0, 1.0 - 1e-9)
+
+    def h1_variance(self) -> np.ndarray:
+        """Variance of the H1 estimate, ``|H|^2 (1 - g2) / (2 n_d g2)`` (Bendat & Piersol)."""
+        g2 = self.coherence
+        return np.abs(self.h1) ** 2 * (1 - g2) / (2 * self.n_segments * np.maximum(g2, 1e-6))
+
+
+def drive_spectra(u: np.ndarray, y: np.ndarray, nperseg: int = 4096, overlap: bool = True) -> DriveSpectra:
+    """Welch spectra (Hann, ``nperseg`` samples, 50 % or no overlap) of drive ``u`` and responses ``y``.
+
+    The recordings are at :data:`RATE_HZ`; ``y`` has one response per row. With overlap the
+    segments are about half as independent: ``n_segments`` counts ``2 n / nperseg - 1``
+    overlapped ones as is (the convention of the H1 variance used here), without overlap
+    ``n / nperseg``.
+    """
+    y = np.atleast_2d(y)
+    noverlap = None if overlap else 0
+    f, suu = sps.welch(u, RATE_HZ, nperseg=nperseg, noverlap=noverlap)
+    _, suy = sps.csd(u[None, :], y, RATE_HZ, nperseg=nperseg, noverlap=noverlap)
+    _, syy = sps.welch(y, RATE_HZ, nperseg=nperseg, noverlap=noverlap)
+    n_d = max(2, 2 * u.size // nperseg - 1) if overlap else max(2, u.size // nperseg)
+    return DriveSpectra(f, suu, suy, syy, n_d)
+
+
 def relative_errors(rec: RigRecording, simulated: np.ndarray) -> np.ndarray:
     """Per-channel band-limited relative rms error (see :data:`METRIC`)."""
     e = band_filter(rec.measured - simulated)
@@ -176,12 +233,10 @@ def significance_map(
     u = rec.drive.samples[k0:]
     e = (rec.measured - simulated)[:, k0:]
     y = rec.measured[:, k0:]
-    f, suu = sps.welch(u, RATE_HZ, nperseg=nperseg, noverlap=0)
-    _, sue = sps.csd(u[None, :], e, RATE_HZ, nperseg=nperseg, noverlap=0)
-    _, see = sps.welch(e, RATE_HZ, nperseg=nperseg, noverlap=0)
-    _, syy = sps.welch(y, RATE_HZ, nperseg=nperseg, noverlap=0)
-    g2 = np.abs(sue) ** 2 / (suu[None, :] * see + 1e-300)
-    n_d = max(2, u.size // nperseg)
+    res = drive_spectra(u, e, nperseg, overlap=False)
+    f, see, n_d = res.f, res.syy, res.n_segments
+    syy = drive_spectra(u, y, nperseg, overlap=False).syy
+    g2 = np.abs(res.suy) ** 2 / (res.suu[None, :] * see + 1e-300)
     coherent = (
         np.maximum(g2 - 1.0 / n_d, 0.0) * see
     )  # residual power coherent with the drive, null bias removed

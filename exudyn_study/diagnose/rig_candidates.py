@@ -1,0 +1,455 @@
+"""Registry of rig-diagnosis candidates: catalogue entry -> factory of candidate hypotheses.
+
+Every round of :func:`~exudyn_study.diagnose.rig.diagnose_rig` asks each registered
+candidate's factory for hypotheses (:mod:`~exudyn_study.diagnose.rig_hypotheses`) at the
+places that fit the located mismatch. A factory gets a :class:`CandidateContext` (the
+current model and its linearisation, the located sensors, a builder of the current model,
+what was already found) and returns a list of hypotheses (none where the entry does not
+apply). The registration declares
+
+- ``kind``: ``'linear'`` (the hypothesis gives a linear system, fitted in the frequency
+  domain / by exact linear simulation) or ``'simulated'`` (local nonlinear elements,
+  simulated in time);
+- ``needs_level_dependence``: only offered when the mismatch grows with the drive level
+  (a nonlinear candidate explains nothing a linear model cannot, at one level);
+- ``description``: one line for the report.
+
+The built-ins (``added_mass``, ``modal_damping``, ``sensor_gain``,
+``drive_linkage_compliance``, ``joint_stiffness``, ``bushing_stiffening``,
+``joint_friction``) are registered here through :func:`register_rig_candidate`, the same
+call a user makes for an own catalogue entry (register the entry itself with
+:func:`exudyn_study.physics.register` first)::
+
+    from exudyn_study.diagnose import register_rig_candidate
+    from exudyn_study.diagnose.rig_hypotheses import AffineHypothesis
+
+    def my_factory(ctx):
+        return [AffineHypothesis("my_entry", loc, ctx.entry("my_entry"), ctx.build, {"k": 1e6},
+                                 {"k": 1e5}, sensors=tuple(ctx.located)) for loc in ("a", "b")]
+
+    register_rig_candidate("my_entry", my_factory, kind="linear")
+"""
+
+from __future__ import annotations
+
+import logging
+from collections.abc import Callable
+from dataclasses import dataclass, field
+
+import numpy as np
+
+from ..errors import InputError
+
+__all__ = [
+    "CandidateContext",
+    "RigCandidate",
+    "RIG_CANDIDATES",
+    "register_rig_candidate",
+    "unregister_rig_candidate",
+    "MODAL_DAMPING_MAX_HZ",
+]
+
+log = logging.getLogger(__name__)
+
+#: body modes whose damping the modal-damping candidate scales (free-free frequency, Hz): the
+#: ones that shape the 3-60 Hz response
+MODAL_DAMPING_MAX_HZ = 200.0
+
+_KINDS = ("linear", "simulated")
+
+
+@dataclass
+class CandidateContext:
+    """What a candidate factory may use in one round of the diagnosis.
+
+    Attributes
+    ----------
+    model : exudyn_study.model.Model
+        The current model (nominal plus the findings so far), assembled.
+    lin : exudyn_study.modal.LinearSystem
+        Its linearisation (the linear tangent where it has nonlinear findings).
+    build : callable
+        ``build() -> Model``: a fresh, not yet assembled copy of the current model.
+    locations : list of str
+        Point locations (sensors, then frame interfaces).
+    markers : dict
+        location -> (Exudyn marker, global position) on ``model``.
+    sensor_names : tuple of str
+        The model's sensors (simulation output order).
+    located : list of str
+        Sensors with significant mismatch, strongest first.
+    level_dependent : bool
+        Whether the mismatch grows with the drive level.
+    nonlinear_sensors : list of str
+        Sensors whose response has a local level-dependent share, strongest first.
+    done : set of (physics, location)
+        Findings already made (do not offer them again).
+    say : callable
+        Progress text.
+    """
+
+    model: object
+    lin: object
+    build: Callable
+    locations: list
+    markers: dict
+    sensor_names: tuple
+    located: list
+    level_dependent: bool
+    done: set = field(default_factory=set)
+    say: Callable = field(default=lambda text: None)
+    #: sensors where the response has a local nonlinear share (model-free, from two levels of
+    #: one drive); empty when unknown: then nonlinear candidates go by ``located``
+    nonlinear_sensors: list = field(default_factory=list)
+
+    @staticmethod
+    def entry(name: str):
+        """Return the catalogue entry ``name``."""
+        from ..physics import entry
+
+        return entry(name)
+
+    def component_sensors(self, component: str) -> tuple:
+        """Return the model's sensors on ``component`` (thesis sensor table)."""
+        return tuple(s for s in self.sensor_names if sensor_component(s) == component)
+
+
+@dataclass(frozen=True)
+class RigCandidate:
+    """A registered candidate: ``factory(ctx) -> list of Hypothesis`` for catalogue entry ``physics``."""
+
+    physics: str
+    factory: Callable
+    kind: str = "linear"
+    needs_level_dependence: bool = False
+    description: str = ""
+
+
+#: physics name -> RigCandidate (built-ins and user registrations), in registration order
+RIG_CANDIDATES: dict[str, RigCandidate] = {}
+
+
+def register_rig_candidate(
+    physics: str,
+    factory: Callable,
+    *,
+    kind: str = "linear",
+    needs_level_dependence: bool = False,
+    description: str = "",
+    replace: bool = False,
+) -> RigCandidate:
+    """Register ``factory`` as the rig diagnosis's way to turn catalogue entry ``physics`` into hypotheses.
+
+    Parameters
+    ----------
+    physics : str
+        A catalogue entry name (:data:`exudyn_study.physics.CATALOGUE`).
+    factory : callable
+        ``factory(ctx: CandidateContext) -> list of Hypothesis``; an empty list where the
+        entry does not apply to the model or the located mismatch.
+    kind : {'linear', 'simulated'}
+        Linear systems (fast, frequency domain) or local nonlinear elements (time simulation).
+    needs_level_dependence : bool
+        Offer the candidate only when the mismatch grows with the drive level.
+    description : str
+    replace : bool
+        Replace an existing registration of ``physics``.
+
+    Returns
+    -------
+    RigCandidate
+
+    Raises
+    ------
+    InputError
+        Unknown catalogue entry, a factory that is not callable, a bad ``kind``, or
+        ``physics`` already registered without ``replace``.
+    """
+    from ..physics import CATALOGUE
+
+    if physics not in CATALOGUE:
+        raise InputError(
+            f"register_rig_candidate: {physics!r} is not a catalogue entry; register it first with "
+            f"exudyn_study.physics.register (entries: {sorted(CATALOGUE)})"
+        )
+    if not callable(factory):
+        raise InputError(f"register_rig_candidate: factory {factory!r} of {physics!r} is not callable")
+    if kind not in _KINDS:
+        raise InputError(f"register_rig_candidate: kind {kind!r} of {physics!r}; expected one of {_KINDS}")
+    if physics in RIG_CANDIDATES and not replace:
+        raise InputError(
+            f"register_rig_candidate: {physics!r} already has a rig candidate; pass replace=True to "
+            "replace it"
+        )
+    cand = RigCandidate(physics, factory, kind, bool(needs_level_dependence), description)
+    RIG_CANDIDATES[physics] = cand
+    return cand
+
+
+def unregister_rig_candidate(physics: str) -> None:
+    """Remove the rig candidate of ``physics`` (no error if there is none)."""
+    RIG_CANDIDATES.pop(physics, None)
+
+
+def sensor_component(name: str) -> str | None:
+    """Return the component a thesis sensor sits on (None for a sensor outside the table)."""
+    from ..sensors import SENSORS
+
+    for s in SENSORS:
+        if s.name == name:
+            return s.component
+    return None
+
+
+# --------------------------------------------------------------------------------------- built-ins
+def _added_mass(ctx: CandidateContext):
+    from ..physics.nonlinear import marker_displacement_map
+    from .rig_hypotheses import AddedMassHypothesis
+
+    out, seen = [], []
+    model = ctx.model
+    for loc in ctx.locations:
+        marker, pos = ctx.markers[loc]
+        if any(np.linalg.norm(pos - q) < 1e-6 for q in seen):
+            continue  # several sensors (X, Y, Z) at one point: one candidate
+        seen.append(pos)
+        is_sensor = loc in model.sensors
+        near = [s for s in ctx.sensor_names if np.linalg.norm(model.sensors[s].sensor.position_m - pos) < 0.3]
+        here = [s for s in ctx.sensor_names if np.linalg.norm(ctx.markers[s][1] - pos) < 1e-6]
+        out.append(
+            AddedMassHypothesis(
+                loc,
+                ctx.lin,
+                marker_displacement_map(model, marker),
+                component=sensor_component(loc) if is_sensor else "frame",
+                sensors=tuple(here if is_sensor else near),
+                interface=None if is_sensor else loc.split(".", 1)[1],
+                screen_grid=(2.0, 6.0, 15.0, 40.0, 100.0),
+            )
+        )
+    return out
+
+
+def _modal_damping(ctx: CandidateContext):
+    from .rig_hypotheses import ModalDampingHypothesis
+
+    out = []
+    model = ctx.model
+    for body, handle in model.bodies.items():
+        if body == "rear_foundation" or ("modal_damping", body) in ctx.done:
+            continue
+        idx = np.asarray(model.mbs.systemData.GetNodeLTGODE2(handle.modal_node), dtype=int)
+        freq = np.asarray(handle.body.frequencies_hz, dtype=float)
+        n_rigid = idx.size - freq.size  # linear CMS bodies carry 6 rigid-body coordinates first
+        idx = idx[n_rigid:][freq <= MODAL_DAMPING_MAX_HZ]
+        out.append(
+            ModalDampingHypothesis(
+                body,
+                ctx.lin,
+                idx,
+                component=body,
+                sensors=tuple(ctx.located),
+                fixed={"max_frequency_hz": MODAL_DAMPING_MAX_HZ},
+                screen_grid=(0.3, 0.6, 1.6, 3.0),
+            )
+        )
+    return out
+
+
+def _sensor_gain(ctx: CandidateContext):
+    from .rig_hypotheses import SensorGainHypothesis
+
+    return [
+        SensorGainHypothesis(
+            ch,
+            ctx.lin,
+            component=sensor_component(ch),
+            sensors=(ch,),
+            carry="gains",
+            screen_grid=(0.7, 0.85, 1.15, 1.4),
+        )
+        for ch in ctx.located
+        if ("sensor_gain", ch) not in ctx.done
+    ]
+
+
+def _drive_linkage(ctx: CandidateContext):
+    from .rig_hypotheses import AffineHypothesis
+
+    if ("drive_linkage_compliance", "drive_linkage") in ctx.done:
+        return []
+    ctx.say("linearising the drive-linkage hypothesis")
+    return [
+        AffineHypothesis(
+            "drive_linkage_compliance",
+            None,
+            ctx.entry("drive_linkage_compliance"),
+            ctx.build,
+            {"stiffness_n_per_m": 2e7, "damping_n_s_per_m": 2e3, "mass_kg": 20.0},
+            {"stiffness_n_per_m": 1e6, "damping_n_s_per_m": 100.0, "mass_kg": 1.0},
+            component="rig drive linkage",
+            sensors=tuple(ctx.located),
+            interface="piston_linkage",
+            apply_location="drive_linkage",
+        )
+    ]
+
+
+def _component_joints(ctx: CandidateContext, sensors):
+    """Model-3 component joints not yet found whose component carries one of ``sensors`` (first first)."""
+    from ..physics.entries_more import component_joints
+
+    if getattr(ctx.model, "variant", None) != 3:
+        return []
+    taken = {loc for name, loc in ctx.done if name in ("joint_stiffness", "joint_friction")}
+    rank = {}
+    for i, s in enumerate(sensors):
+        comp = sensor_component(s)
+        if comp is not None:
+            rank.setdefault(comp, i)
+    joints = [k for k in component_joints(ctx.model) if k not in taken and k.split(".", 1)[0] in rank]
+    return sorted(joints, key=lambda k: rank[k.split(".", 1)[0]])
+
+
+#: start values of the joint candidates: a stiff joint (the nominal joints are rigid)
+JOINT_START = {"stiffness_n_per_m": 1e9, "rotational_stiffness_n_m_per_rad": 1e7, "damping_time_s": 1e-4}
+
+
+def _joint_stiffness(ctx: CandidateContext):
+    from .rig_hypotheses import ConnectorHypothesis
+
+    out = []
+    for key in _component_joints(ctx, ctx.located):
+        comp, itf = key.split(".", 1)
+        ctx.say(f"linearising the joint-stiffness hypothesis at {key}")
+        out.append(
+            ConnectorHypothesis(
+                "joint_stiffness",
+                key,
+                ctx.entry("joint_stiffness"),
+                ctx.build,
+                dict(JOINT_START),
+                component=comp,
+                sensors=ctx.component_sensors(comp),
+                interface=itf,
+                # a joint may be soft in rotation and stiffer in translation than the data resolve
+                # (or the reverse), and add no damping: at least one parameter must be identifiable
+                may_vanish=("stiffness_n_per_m", "rotational_stiffness_n_m_per_rad", "damping_time_s"),
+            )
+        )
+    return out
+
+
+def _cubic_laws(p, elements):
+    """Cubic stiffening laws with coefficient ``p[0]`` for every new element."""
+    from ..physics.nonlinear import CubicStiffening
+
+    return [CubicStiffening(float(p[0])) for _ in elements]
+
+
+def _bushing(ctx: CandidateContext):
+    from .rig_hypotheses import LocalElementHypothesis
+
+    if ("bushing_stiffening", "bracket_left") in ctx.done:
+        return []
+    try:
+        ctx.say("linearising the bushing-stiffening hypothesis")
+        return [
+            LocalElementHypothesis(
+                "bushing_stiffening",
+                "bracket_left",
+                ctx.entry("bushing_stiffening"),
+                ctx.build,
+                {"cubic_stiffness_n_per_m3": 1e11},
+                _cubic_laws,
+                component="bracket_left",
+                sensors=tuple(s for s in ctx.sensor_names if s.startswith("ASV")),
+                interface="bracket_left",
+                screen_grid=(1e12, 1e13, 1e14, 1e15),
+            )
+        ]
+    except InputError as exc:  # the model has no rubber bushing region
+        log.info("bushing_stiffening not applicable: %s", exc)
+        return []
+
+
+#: start of the friction candidates: a stuck contact as stiff as the entry's default, slip force
+#: refined from the screening grid
+FRICTION_START = {"stuck_stiffness_n_per_m": 5e7, "slip_force_n": 1e3}
+
+
+def _jenkins_laws(p, elements):
+    """Jenkins elements (stuck spring ``p[0]`` in series with a slider of ``p[1]``) for every new element."""
+    from ..physics.nonlinear import JenkinsFriction
+
+    return [JenkinsFriction(float(p[0]), float(p[1])) for _ in elements]
+
+
+def _joint_friction(ctx: CandidateContext):
+    from ..physics.entries_more import _contact_normal
+    from .rig_hypotheses import LocalElementHypothesis
+
+    out = []
+    # where the response has a local nonlinear share (else where the mismatch is)
+    for key in _component_joints(ctx, ctx.nonlinear_sensors or ctx.located):
+        comp, itf = key.split(".", 1)
+        normal = _contact_normal(ctx.model, key)
+
+        def stiffness_vector(p, normal=normal):
+            return [0.0 if a == normal else float(p[0]) for a in range(3)]
+
+        try:
+            ctx.say(f"linearising the joint-friction hypothesis at {key}")
+            out.append(
+                LocalElementHypothesis(
+                    "joint_friction",
+                    key,
+                    ctx.entry("joint_friction"),
+                    ctx.build,
+                    dict(FRICTION_START),
+                    _jenkins_laws,
+                    tangent=("spring", "stiffness", stiffness_vector),
+                    screen_grid=tuple((FRICTION_START["stuck_stiffness_n_per_m"], f) for f in (1e2, 1e3, 1e4)),
+                    component=comp,
+                    sensors=ctx.component_sensors(comp),
+                    interface=itf,
+                )
+            )
+        except InputError as exc:  # e.g. a joint already replaced by a spring
+            log.info("joint_friction at %s not applicable: %s", key, exc)
+    return out
+
+
+register_rig_candidate(
+    "added_mass", _added_mass, description="a rigid point mass at every sensor point and frame interface"
+)
+register_rig_candidate(
+    "drive_linkage_compliance",
+    _drive_linkage,
+    description="the rig's drive linkage as a spring-damper with a mass (3 parameters)",
+)
+register_rig_candidate(
+    "joint_stiffness",
+    _joint_stiffness,
+    description="a Model-3 component joint as a 6-DOF spring-damper (translational and rotational "
+    "stiffness, stiffness-proportional damping)",
+)
+register_rig_candidate(
+    "modal_damping", _modal_damping, description="one flexible body's modal damping (modes < 200 Hz) scaled"
+)
+register_rig_candidate("sensor_gain", _sensor_gain, description="one located sensor's sensitivity")
+register_rig_candidate(
+    "bushing_stiffening",
+    _bushing,
+    kind="simulated",
+    needs_level_dependence=True,
+    description="cubic hardening across the left bracket's rubber pad (simulated in time)",
+)
+register_rig_candidate(
+    "joint_friction",
+    _joint_friction,
+    kind="simulated",
+    needs_level_dependence=True,
+    description="micro-slip (Jenkins elements) in the contact plane of a Model-3 component joint "
+    "(softening and damping growing with level; simulated in time)",
+)

@@ -1,0 +1,256 @@
+"""The registry of rig-diagnosis candidates: a user's own catalogue entry is found without touching the
+pipeline; the joint candidates' fast systems equal a fresh linearisation of the model with the entry
+applied."""
+
+from __future__ import annotations
+
+import sys
+from pathlib import Path
+
+import numpy as np
+import pytest
+
+from exudyn_study.errors import InputError
+from exudyn_study.virtual_rig import Augment, Scenario, virtual_recording
+
+sys.path.insert(0, str(Path(__file__).resolve().parents[1]))
+from rig_fixtures import FRAME_SENSORS, mini_bodies  # noqa: E402
+
+DURATION_S = 16.0
+
+
+def _add_absorber(model, location, params):
+    """A point mass on an isotropic spring at a sensor node (a cable clamp or bracket that resonates)."""
+    import exudyn.itemInterface as eii
+
+    from exudyn_study.physics.entries import location_point
+
+    marker, pos = location_point(model, location)
+    mbs = model.mbs
+    node = mbs.AddNode(
+        eii.NodePoint(name=f"absorber:{location}", referenceCoordinates=[float(v) for v in pos])
+    )
+    mbs.AddObject(eii.ObjectMassPoint(nodeNumber=node, mass=params["mass_kg"]))
+    m_mass = mbs.AddMarker(eii.MarkerNodePosition(nodeNumber=node))
+    k = params["stiffness_n_per_m"]
+    spring = mbs.AddObject(
+        eii.ObjectConnectorCartesianSpringDamper(
+            markerNumbers=[marker, m_mass], stiffness=[k] * 3, damping=[params["damping_n_s_per_m"]] * 3
+        )
+    )
+    return {"spring": int(spring)}
+
+
+@pytest.fixture()
+def absorber_entry():
+    from exudyn_study.physics import Parameter, PhysicsEntry, register, unregister
+
+    e = register(
+        PhysicsEntry(
+            name="test_absorber",
+            doc="A mass on a spring at a sensor node (test entry).",
+            parameters=(
+                Parameter("mass_kg", "kg", 0.1, 100.0, 3.0),
+                Parameter("stiffness_n_per_m", "N/m", 1e3, 1e8, 5e4),
+                Parameter("damping_n_s_per_m", "N s/m", 0.0, 1e3, 5.0),
+            ),
+            add_items=_add_absorber,
+            locations="a sensor name",
+        )
+    )
+    yield e
+    unregister("test_absorber")
+
+
+def test_register_rig_candidate_rejects_bad_input(absorber_entry):
+    from exudyn_study.diagnose.rig import register_rig_candidate
+
+    with pytest.raises(InputError, match="not a catalogue entry"):
+        register_rig_candidate("no_such_entry", lambda ctx: [])
+    with pytest.raises(InputError, match="not callable"):
+        register_rig_candidate("test_absorber", 42)
+    with pytest.raises(InputError, match="kind"):
+        register_rig_candidate("test_absorber", lambda ctx: [], kind="quantum")
+    with pytest.raises(InputError, match="already has a rig candidate"):
+        register_rig_candidate("added_mass", lambda ctx: [])
+
+
+def test_builtin_candidates_are_registered_with_their_kind():
+    from exudyn_study.diagnose.rig_candidates import RIG_CANDIDATES
+
+    assert {
+        "added_mass",
+        "drive_linkage_compliance",
+        "joint_stiffness",
+        "modal_damping",
+        "sensor_gain",
+        "bushing_stiffening",
+        "joint_friction",
+    } <= set(RIG_CANDIDATES)
+    for name in ("bushing_stiffening", "joint_friction"):
+        assert RIG_CANDIDATES[name].kind == "simulated" and RIG_CANDIDATES[name].needs_level_dependence
+    assert RIG_CANDIDATES["joint_stiffness"].kind == "linear"
+
+
+def test_a_user_entry_registered_as_candidate_is_found_fitted_and_improves_held_out(absorber_entry):
+    """The truth carries a 4 kg absorber tuned to 20 Hz at ARHBZ; only the user's candidate can explain it."""
+    pytest.importorskip("exudyn")
+    from exudyn_study.diagnose.rig import RigDiagnosisSettings, diagnose_rig, register_rig_candidate
+    from exudyn_study.diagnose.rig_candidates import unregister_rig_candidate
+    from exudyn_study.diagnose.rig_hypotheses import AffineHypothesis
+
+    bodies = mini_bodies()
+    k_true = 4.0 * (2 * np.pi * 20.0) ** 2
+    truth = {"mass_kg": 4.0, "stiffness_n_per_m": k_true, "damping_n_s_per_m": 10.0}
+    sc = Scenario(
+        "mini",
+        "test",
+        variant=1,
+        damping="constant-2",
+        augmentations=(Augment("test_absorber", "ARHBZ", truth),),
+    ).with_seed(3)
+    train = virtual_recording(sc, "white-noise", DURATION_S, bodies=bodies, sensors=FRAME_SENSORS)
+    hold = virtual_recording(sc, "test", DURATION_S, bodies=bodies, sensors=FRAME_SENSORS)
+    calls = []
+
+    def factory(ctx):
+        calls.append(list(ctx.located))
+        return [
+            AffineHypothesis(
+                "test_absorber",
+                s,
+                ctx.entry("test_absorber"),
+                ctx.build,
+                {"mass_kg": 2.0, "stiffness_n_per_m": 3e4, "damping_n_s_per_m": 5.0},
+                {"mass_kg": 0.5, "stiffness_n_per_m": 1e3, "damping_n_s_per_m": 1.0},
+                component="frame",
+                sensors=(s,),
+                # a resonator: scan its tuning (2 kg, 8-50 Hz) before fitting
+                screen_grid=tuple(
+                    (2.0, 2.0 * (2 * np.pi * f) ** 2, 5.0) for f in (8, 11, 15, 20, 27, 36, 50)
+                ),
+            )
+            for s in ctx.located
+        ]
+
+    register_rig_candidate("test_absorber", factory, description="test: a mass on a spring at a sensor")
+    try:
+        st = RigDiagnosisSettings()
+        st.train_duration_s, st.screen_duration_s, st.max_findings = 12.0, 8.0, 1
+        d = diagnose_rig(
+            1,
+            [train],
+            [hold],
+            damping="constant-2",
+            bodies=bodies,
+            sensors=FRAME_SENSORS,
+            settings=st,
+            candidates=["test_absorber"],
+        )
+    finally:
+        unregister_rig_candidate("test_absorber")
+    assert calls, "the user's factory was never asked"
+    f = d.findings[0]
+    assert f.physics == "test_absorber" and f.location["sensors"] == ["ARHBZ"]
+    assert f.parameters["mass_kg"]["value"] == pytest.approx(4.0, rel=0.1)
+    assert f.parameters["stiffness_n_per_m"]["value"] == pytest.approx(k_true, rel=0.1)
+    assert f.fit["holdout_after"] < 0.5 * f.fit["holdout_before"]
+
+
+@pytest.fixture(scope="module")
+def model3():
+    pytest.importorskip("exudyn")
+    from rig_fixtures import MODEL3_SENSORS, mini_model3_bodies
+
+    from exudyn_study.model import build_model_from_bodies
+    from exudyn_study.rig_cli import parse_damping
+
+    bodies = mini_model3_bodies()
+
+    def build():
+        return build_model_from_bodies(
+            bodies, 3, damping=parse_damping("constant-2"), sensors=MODEL3_SENSORS, exudyn_mesh="used"
+        )
+
+    return build
+
+
+def _fresh(build, name, location, values):
+    from exudyn_study.diagnose.rig_hypotheses import model_system
+    from exudyn_study.physics import entry
+
+    model = build()
+    entry(name).apply(model, location, **values)
+    return model_system(model)
+
+
+def test_joint_stiffness_candidate_equals_the_model_with_the_joint_replaced(model3):
+    """The one-build candidate (stiffness and damping set on the assembled model) against a fresh build at
+    other values: same constrained matrices, so the same FRFs (damping is bilinear in stiffness and damping
+    time)."""
+    from exudyn_study.diagnose.rig_hypotheses import ConnectorHypothesis
+    from exudyn_study.physics import entry
+    from exudyn_study.simulate import frf_linear
+
+    key = "tank_left.tank_left_front"
+    h = ConnectorHypothesis(
+        "joint_stiffness",
+        key,
+        entry("joint_stiffness"),
+        model3,
+        {"stiffness_n_per_m": 1e9, "rotational_stiffness_n_m_per_rad": 1e7, "damping_time_s": 1e-4},
+    )
+    values = {"stiffness_n_per_m": 3e7, "rotational_stiffness_n_m_per_rad": 2e5, "damping_time_s": 2e-3}
+    ref = _fresh(model3, "joint_stiffness", key, values)
+    got = h.system([values[n] for n in h.names])
+    for a, b in ((got.stiffness, ref.stiffness), (got.damping, ref.damping), (got.mass, ref.mass)):
+        assert np.abs(a - b).max() <= 1e-9 * np.abs(b).max()
+    f = np.linspace(3.0, 60.0, 300)
+    h_ref = frf_linear(ref, f)
+    assert np.abs(frf_linear(got, f) - h_ref).max() <= 1e-6 * np.abs(h_ref).max()
+    # and the joint is really released: the softened joint moves the system's modes
+    from exudyn_study.diagnose.rig_hypotheses import model_system
+
+    h_rigid = frf_linear(model_system(model3()), f)
+    assert np.abs(h_rigid - h_ref).max() > 0.05 * np.abs(h_ref).max()
+
+
+def test_joint_friction_candidate_equals_the_model_with_friction(model3):
+    """The friction candidate at (stuck stiffness, slip force) against a fresh build with the entry at those
+    values:
+    the same tangent system, element directions and Jenkins laws, hence the same time response."""
+    from exudyn_study.diagnose.rig_candidates import FRICTION_START, _jenkins_laws
+    from exudyn_study.diagnose.rig_hypotheses import LocalElementHypothesis
+    from exudyn_study.model.rig import Drive
+    from exudyn_study.physics import entry
+    from exudyn_study.physics.entries_more import _contact_normal
+    from exudyn_study.physics.nonlinear import simulate_local_nonlinear
+
+    key = "tank_left.tank_left_front"
+    probe = model3()
+    normal = _contact_normal(probe, key)
+    h = LocalElementHypothesis(
+        "joint_friction",
+        key,
+        entry("joint_friction"),
+        model3,
+        dict(FRICTION_START),
+        _jenkins_laws,
+        tangent=("spring", "stiffness", lambda p: [0.0 if a == normal else float(p[0]) for a in range(3)]),
+    )
+    values = {"stuck_stiffness_n_per_m": 2e7, "slip_force_n": 50.0}
+    ref = _fresh(model3, "joint_friction", key, values)
+    got = h.system([values[n] for n in h.names])
+    assert np.abs(got.lin.stiffness - ref.lin.stiffness).max() <= 1e-9 * np.abs(ref.lin.stiffness).max()
+    np.testing.assert_allclose(got.gather, ref.gather, atol=1e-12)
+    rng = np.random.default_rng(1)
+    drive = Drive()
+    drive.set_signal(np.convolve(rng.standard_normal(1500), np.ones(20) / 20, "same") * 2e-3, 1000.0)
+    y_got = simulate_local_nonlinear(got.lin, drive, got.gather, got.laws, 2)
+    y_ref = simulate_local_nonlinear(ref.lin, drive, ref.gather, ref.laws, 2)
+    assert np.abs(y_got - y_ref).max() <= 1e-6 * np.abs(y_ref).max()
+    # the contact does slip at this level: the response is not that of the stuck joint
+    from exudyn_study.simulate import simulate_linear
+
+    y_stuck = simulate_linear(ref.lin, drive)
+    assert np.abs(y_stuck - y_ref).max() > 0.01 * np.abs(y_ref).max()
