@@ -46,7 +46,7 @@ def truth_modes() -> float:
     model.assemble()
     modes = system_modes(model, linearize(model), max_frequency_hz=60.0)
     print("linearised truth (system modes, 0-60 Hz):")
-    for f, z, d in zip(modes.frequency_hz, modes.damping_ratio, modes.descriptions):
+    for f, z, d in zip(modes.frequency_hz, modes.damping_ratio, modes.descriptions, strict=True):
         print(f"  {f:7.2f} Hz  {100 * z:5.2f} %  {d}")
     return time.perf_counter() - t0
 
