@@ -15,10 +15,10 @@ apply). The registration declares
 - ``description``: one line for the report.
 
 The built-ins (``added_mass``, ``modal_damping``, ``sensor_gain``,
-``drive_linkage_compliance``, ``joint_stiffness``, ``bushing_stiffening``,
-``joint_friction``) are registered here through :func:`register_rig_candidate`, the same
-call a user makes for an own catalogue entry (register the entry itself with
-:func:`exudyn_study.physics.register` first)::
+``drive_linkage_compliance``, ``joint_stiffness``, ``bushing_stiffness``,
+``bushing_stiffening``, ``joint_friction``) are registered here through
+:func:`register_rig_candidate`, the same call a user makes for an own catalogue entry
+(register the entry itself with :func:`exudyn_study.physics.register` first)::
 
     from exudyn_study.diagnose import register_rig_candidate
     from exudyn_study.diagnose.rig_hypotheses import AffineHypothesis
@@ -340,6 +340,47 @@ def _joint_stiffness(ctx: CandidateContext):
     return out
 
 
+def _pad_basis(model):
+    """Stiffness basis of ``bushing_stiffness``: the pad's spring per unit shear and compression modulus."""
+    from ..physics.entries_structure import _rubber_body, pad_spring_matrix, rubber_pad
+
+    pad = rubber_pad(model.bodies[_rubber_body(model)].body)
+    return {
+        "shear_modulus_increase_pa": pad_spring_matrix(pad, 1.0, 0.0),
+        "compression_modulus_increase_pa": pad_spring_matrix(pad, 0.0, 1.0),
+    }
+
+
+#: start of the pad candidate: moduli of the order of the nominal rubber's (G 1.7 MPa)
+PAD_START = {"shear_modulus_increase_pa": 1e6, "compression_modulus_increase_pa": 5e6, "damping_time_s": 1e-4}
+
+
+def _bushing_stiffness(ctx: CandidateContext):
+    from .rig_hypotheses import ConnectorHypothesis
+
+    if ("bushing_stiffness", "bracket_left") in ctx.done:
+        return []
+    try:
+        ctx.say("linearising the bushing-stiffness hypothesis")
+        return [
+            ConnectorHypothesis(
+                "bushing_stiffness",
+                "bracket_left",
+                ctx.entry("bushing_stiffness"),
+                ctx.build,
+                dict(PAD_START),
+                basis=_pad_basis,
+                component="bracket_left",
+                sensors=ctx.component_sensors("bracket_left"),
+                interface="bracket_left",
+                may_vanish=("shear_modulus_increase_pa", "compression_modulus_increase_pa", "damping_time_s"),
+            )
+        ]
+    except InputError as exc:  # the model has no rubber pad
+        log.info("bushing_stiffness not applicable: %s", exc)
+        return []
+
+
 def _cubic_laws(p, elements):
     """Cubic stiffening laws with coefficient ``p[0]`` for every new element."""
     from ..physics.nonlinear import CubicStiffening
@@ -409,7 +450,9 @@ def _joint_friction(ctx: CandidateContext):
                     dict(FRICTION_START),
                     _jenkins_laws,
                     tangent=("spring", "stiffness", stiffness_vector),
-                    screen_grid=tuple((FRICTION_START["stuck_stiffness_n_per_m"], f) for f in (1e2, 1e3, 1e4)),
+                    screen_grid=tuple(
+                        (FRICTION_START["stuck_stiffness_n_per_m"], f) for f in (1e2, 1e3, 1e4)
+                    ),
                     component=comp,
                     sensors=ctx.component_sensors(comp),
                     interface=itf,
@@ -433,6 +476,11 @@ register_rig_candidate(
     _joint_stiffness,
     description="a Model-3 component joint as a 6-DOF spring-damper (translational and rotational "
     "stiffness, stiffness-proportional damping)",
+)
+register_rig_candidate(
+    "bushing_stiffness",
+    _bushing_stiffness,
+    description="the left bracket's rubber pad stiffer (shear and compression modulus) and lossier",
 )
 register_rig_candidate(
     "modal_damping", _modal_damping, description="one flexible body's modal damping (modes < 200 Hz) scaled"

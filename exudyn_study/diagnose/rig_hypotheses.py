@@ -39,6 +39,7 @@ __all__ = [
     "ConnectorHypothesis",
     "LocalElementHypothesis",
     "NonlinearSystem",
+    "CompositeHypothesis",
     "AffineHypothesis",
     "AddedMassHypothesis",
     "ModalDampingHypothesis",
@@ -348,42 +349,73 @@ class _Relinearised:
         )
 
 
-class ConnectorHypothesis(Hypothesis):
-    """A bolted joint as a 6-DOF spring-damper (``joint_stiffness``), one Exudyn build.
+def joint_basis(model) -> dict:
+    """Stiffness basis of ``joint_stiffness``: translational and rotational diagonal (per unit value)."""
+    return {
+        "stiffness_n_per_m": np.diag([1.0] * 3 + [0.0] * 3),
+        "rotational_stiffness_n_m_per_rad": np.diag([0.0] * 3 + [1.0] * 3),
+    }
 
-    The entry is applied at ``start`` with no damping; the derivatives of the matrices by the
-    translational and rotational stiffness and by unit translational and rotational damping
-    are taken on the same assembled model (:class:`_Relinearised`). With the entry's
-    stiffness-proportional damping ``C = t diag(k)``, the system at ``p = (k_t, k_r, t)`` is
-    ``K0 + (k_t - k_t0) dK_t + (k_r - k_r0) dK_r`` and ``C0 + t (k_t dC_t + k_r dC_r)``,
-    exact (``C`` is bilinear in ``k`` and ``t``, which a purely affine interpolation is not).
+
+class ConnectorHypothesis(Hypothesis):
+    """An entry that adds one 6-DOF spring-damper (``joint_stiffness``, ``bushing_stiffness``), one build.
+
+    The spring's stiffness matrix is ``sum_i p_i B_i`` over the stiffness parameters (``basis(model)``
+    -> {name: B_i}, default :func:`joint_basis`) and its damping ``t`` times it (``damping`` names
+    ``t``, a damping time). The entry is applied at ``start`` with no damping; the derivatives of
+    the matrices by each ``p_i`` and by damping ``B_i`` are taken on the same assembled model
+    (:class:`_Relinearised`): ``K0 + sum (p_i - p_i0) dK_i`` and ``C0 + t sum p_i dC_i``, exact
+    (``C`` is bilinear in ``p`` and ``t``, which a purely affine interpolation is not).
     """
 
-    def __init__(self, physics, location, entry, build: Callable, start: dict, **where):
+    def __init__(
+        self,
+        physics,
+        location,
+        entry,
+        build: Callable,
+        start: dict,
+        basis=joint_basis,
+        damping: str = "damping_time_s",
+        **where,
+    ):
         super().__init__(physics, location, *_entry_fields(entry, start), **where)
-        kt, kr = float(start["stiffness_n_per_m"]), float(start["rotational_stiffness_n_m_per_rad"])
         model = build()
-        applied = entry.apply(model, location, **{**start, "damping_time_s": 0.0})
+        applied = entry.apply(model, location, **{**start, damping: 0.0})
         model.assemble()
         rl = _Relinearised(model)
         spring = int(applied.items["spring"])
-        stiff = np.diag([kt] * 3 + [kr] * 3).tolist()
+        unit = basis(model)
+        self.stiff_names = tuple(unit)
+        self.damping_index = self.names.index(damping)
+        p0 = np.array([float(start[n]) for n in self.stiff_names])
+        k_start = sum(v * unit[n] for n, v in zip(self.stiff_names, p0, strict=True))
         zero = np.zeros((6, 6)).tolist()
         self.base = rl.base
-        self.d_kt = rl.derivative(spring, "stiffness", stiff, np.diag([2 * kt] * 3 + [kr] * 3).tolist(), kt)[
-            2
-        ]
-        self.d_kr = rl.derivative(spring, "stiffness", stiff, np.diag([kt] * 3 + [2 * kr] * 3).tolist(), kr)[
-            2
-        ]
-        self.d_ct = rl.derivative(spring, "damping", zero, np.diag([1.0] * 3 + [0.0] * 3).tolist(), 1.0)[1]
-        self.d_cr = rl.derivative(spring, "damping", zero, np.diag([0.0] * 3 + [1.0] * 3).tolist(), 1.0)[1]
-        self.k0 = (kt, kr)
+        self.p0 = p0
+        self.d_k, self.d_c = [], []
+        for n, v in zip(self.stiff_names, p0, strict=True):
+            step = v if v > 0 else 1.0
+            self.d_k.append(
+                rl.derivative(
+                    spring, "stiffness", k_start.tolist(), (k_start + step * unit[n]).tolist(), step
+                )[2]
+            )
+            # damping at that of a 1 ms damping time (the linearisation differentiates
+            # numerically: a unit damping would drown in its noise)
+            c = 1e-3 * step
+            self.d_c.append(rl.derivative(spring, "damping", zero, (c * unit[n]).tolist(), c)[1])
+        self.stiff_index = [self.names.index(n) for n in self.stiff_names]
 
     def system(self, p):
-        kt, kr, t = (float(v) for v in p)
-        k = self.base.full_stiffness + (kt - self.k0[0]) * self.d_kt + (kr - self.k0[1]) * self.d_kr
-        c = self.base.full_damping + t * (kt * self.d_ct + kr * self.d_cr)
+        """Return the constrained system at ``p`` (stiffness parameters and damping time)."""
+        p = np.asarray(p, dtype=float)
+        ks, t = p[self.stiff_index], float(p[self.damping_index])
+        k = self.base.full_stiffness.copy()
+        c = self.base.full_damping.copy()
+        for v, v0, d_k, d_c in zip(ks, self.p0, self.d_k, self.d_c, strict=True):
+            k += (v - v0) * d_k
+            c += t * v * d_c
         return project(self.base.full_mass, c, k, self.base)
 
 
@@ -451,3 +483,90 @@ class LocalElementHypothesis(Hypothesis):
             )
         laws = self.old_laws + list(self.make_laws(p, self.elements))
         return NonlinearSystem(lin, self.gather, laws, self.substeps)
+
+
+class CompositeHypothesis(Hypothesis):
+    """Several linear candidates fitted together.
+
+    For effects that interact: a compliant drive linkage and compliant tank mounts shift each
+    other's modes, so neither explains much alone. All members' catalogue entries are applied
+    to one model at their start values; each free parameter's derivative of the unprojected
+    matrices is taken by one more build with that parameter stepped (the entries are affine
+    in their free parameters, the others held: a joint's damping time is held, which makes
+    its damping ``t diag(k)`` linear in ``k``). ``free`` names each member's fitted
+    parameters (default all).
+    """
+
+    def __init__(self, members, build: Callable, free: dict | None = None):
+        from ..physics import entry as catalogue_entry
+
+        self.members = list(members)
+        specs = []  # (member index, parameter name)
+        for i, h in enumerate(self.members):
+            names = (free or {}).get(i, h.names)
+            specs += [(i, n) for n in names]
+        self.specs = specs
+        starts = [dict(zip(h.names, (float(v) for v in h.start), strict=True)) for h in self.members]
+        lower = np.array([self.members[i].lower[self.members[i].names.index(n)] for i, n in specs])
+        upper = np.array([self.members[i].upper[self.members[i].names.index(n)] for i, n in specs])
+        start = np.array([starts[i][n] for i, n in specs])
+        super().__init__(
+            "+".join(h.physics for h in self.members),
+            ",".join(str(h.location) for h in self.members),
+            tuple(f"{self.members[i].physics}@{self.members[i].location}:{n}" for i, n in specs),
+            tuple(self.members[i].units[self.members[i].names.index(n)] for i, n in specs),
+            lower,
+            upper,
+            np.clip(start, lower, upper),
+        )
+        self.starts = starts
+        from ..modal import linearize
+
+        def lin_at(values_per_member):
+            model = build()
+            for h, values in zip(self.members, values_per_member, strict=True):
+                name, loc, carried = h.carried([values[n] for n in h.names])
+                catalogue_entry(name).apply(model, loc, **carried)
+            model.assemble()
+            return linearize(model)
+
+        self.base = lin_at(starts)
+        self.p0 = start.copy()
+        self.d = []
+        for (i, n), v0, hi in zip(specs, start, upper, strict=True):
+            step = 0.5 * v0 if v0 > 0 else 1e-3 * hi
+            if v0 + step > hi:  # stay inside the entry's bounds (it checks them)
+                step = -step
+            values = [dict(s) for s in starts]
+            values[i][n] = v0 + step
+            other = lin_at(values)
+            if other.full_mass.shape != self.base.full_mass.shape:
+                raise RuntimeError(f"{self.members[i].label}: the model's coordinates change with {n}")
+            self.d.append(
+                tuple(
+                    (b - a) / step
+                    for a, b in (
+                        (self.base.full_mass, other.full_mass),
+                        (self.base.full_damping, other.full_damping),
+                        (self.base.full_stiffness, other.full_stiffness),
+                    )
+                )
+            )
+
+    def system(self, p):
+        """Return the constrained system with every member at its part of ``p``."""
+        dp = np.asarray(p, dtype=float) - self.p0
+        m, c, k = self.base.full_mass.copy(), self.base.full_damping.copy(), self.base.full_stiffness.copy()
+        for v, (d_m, d_c, d_k) in zip(dp, self.d, strict=True):
+            if v != 0.0:
+                m += v * d_m
+                c += v * d_c
+                k += v * d_k
+        return project(m, c, k, self.base)
+
+    def member_values(self, p) -> list:
+        """Each member's full parameter vector at composite parameters ``p`` (held ones at their start)."""
+        values = [dict(s) for s in self.starts]
+        for (i, n), v in zip(self.specs, p, strict=True):
+            values[i][n] = float(v)
+        return [np.array([values[i][n] for n in h.names]) for i, h in enumerate(self.members)]
