@@ -11,7 +11,7 @@ Per model (``mini``: the test frame of ``tests/rig_fixtures.py``; ``model1``/``m
    the reference of every error below.
 2. **Exudyn, full model** (rig joints, prescribed drive, linear CMS bodies,
    generalised-alpha): ``--exudyn-seconds`` of the same drive at the default settings
-   (h = 1/8 ms, rho_infinity 0.5), *before* (rigid super-element markers on the rig's
+   (h = 1/10 ms, rho_infinity 0.5), *before* (rigid super-element markers on the rig's
    spherical joints, Newton relative tolerance 1e-8) and *after* (position markers,
    relative tolerance 1e-6, the defaults; and with ``single_iteration=True``, one
    Newton iteration per step); speed (real-time factor, us per step, Newton

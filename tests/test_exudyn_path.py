@@ -20,9 +20,10 @@ from rig_fixtures import FRAME_SENSORS, MODEL3_SENSORS, mini_bodies, mini_model3
 
 pytest.importorskip("exudyn")
 
-#: band-limited (< 70 Hz) rms error allowed on the strong channels. At the default step
-#: (1/8 ms, rho_infinity 0.5) the mini frame's strong channels are 0.1-2.7 % off, the same
-#: as the constraint-free Exudyn path at that step: it is the integrator's period error.
+#: band-limited (< 70 Hz) rms error allowed on the strong channels. At 1/8 ms and
+#: rho_infinity 0.5 the mini frame's strong channels are 0.1-2.7 % off, the same as the
+#: constraint-free Exudyn path at that step (the integrator's period error, ~h^2); the
+#: default 1/10 ms is closer.
 RTOL_STRONG = 0.05
 
 
