@@ -202,6 +202,8 @@ def _to_arrays(body: ReducedBody, ffrf: FFRFData) -> dict[str, np.ndarray]:
         "fixed_interface_frequencies_hz": body.fixed_interface_frequencies_hz,
         "n_static_modes": np.array(body.n_static_modes),
         "total_mass_kg": np.array(body.total_mass_kg),
+        "fixed_interface_cutoff_hz": np.array(body.fixed_interface_cutoff_hz),
+        "truncation_error_estimate": np.asarray(body.truncation_error_estimate, dtype=float),
         "name": np.array(body.name),
     }
     arrays.update({f"ffrf_{k}": v for k, v in ffrf.as_arrays().items()})
@@ -229,6 +231,8 @@ def _from_arrays(a: dict[str, np.ndarray]) -> tuple[ReducedBody, FFRFData]:
         fixed_interface_frequencies_hz=a["fixed_interface_frequencies_hz"],
         n_static_modes=int(a["n_static_modes"]),
         total_mass_kg=float(a["total_mass_kg"]),
+        fixed_interface_cutoff_hz=float(a["fixed_interface_cutoff_hz"]),
+        truncation_error_estimate=a["truncation_error_estimate"],
     )
     ffrf = FFRFData.from_arrays({k: a[f"ffrf_{k}"] for k in FFRF_FIELDS})
     return body, ffrf
