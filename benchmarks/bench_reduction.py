@@ -1,71 +1,98 @@
 """Benchmark: geometry -> mesh -> FE matrices -> Craig-Bampton -> FFRF terms, and cache hits.
 
-One command: ``python benchmarks/bench_reduction.py [--meshes coarse production] [--exudyn-hcb]``.
-Prints, per mesh size, the DOF count and the wall time of each step with a fresh cache,
-then the time of a cache hit. ``--exudyn-hcb`` also times Exudyn's out-of-the-box
+One command: ``python benchmarks/bench_reduction.py [--meshes coarse production]
+[--joints simple detailed] [--exudyn-hcb]``. Prints, per mesh size and joint model, the DOF
+count and the wall time of each step with a fresh cache, then the time of a cache hit. A mesh
+size whose ``maxh`` equals one already timed is reported as that one, not rebuilt (today
+``MESH_SIZES`` has 0.12 m for both; see :data:`exudyn_study.fe.chassis.MESH_SIZES`).
+``--exudyn-hcb`` also times Exudyn's out-of-the-box
 ``FEMinterface.ComputeHurtyCraigBamptonModes`` (RBE2, scipy) on the same model with the
 same number of fixed-interface modes, as a ratio in the same run.
 
-Target (issue 2): the production assembly (~150 k DOF) from geometry to reduced body in
-under 60 s on this 2-core machine. Times on a shared machine are noisy: compare ratios.
+Target (issue 2): the production assembly (~150 k DOF, simple joints) from geometry to
+reduced body in under 60 s on this 2-core machine. Times on a shared machine are noisy:
+the load average is printed with the results; compare ratios within one run.
 """
 
 from __future__ import annotations
 
 import argparse
+import os
 import tempfile
 import time
 
 from exudyn_study.bodies import BodySpec, fe_model_and_interfaces, flexible_body
 
+STEPS = ("mesh", "assembly", "reduction", "reduction.factorisation", "reduction.static_modes",
+         "reduction.fixed_interface_modes", "reduction.orthogonalisation", "reduction.convergence_check",
+         "ffrf_terms")
+
 
 def main() -> None:
     parser = argparse.ArgumentParser(description=__doc__.splitlines()[0])
     parser.add_argument("--meshes", nargs="+", default=["coarse", "production"])
-    parser.add_argument("--joints", default="simple", choices=["simple", "detailed"])
+    parser.add_argument("--joints", nargs="+", default=["simple", "detailed"], choices=["simple", "detailed"])
     parser.add_argument("--exudyn-hcb", action="store_true", help="also time Exudyn's own HCB")
     args = parser.parse_args()
     rows = []
-    for mesh in args.meshes:
-        spec = BodySpec(joint_model=args.joints, mesh_size=mesh)
-        with tempfile.TemporaryDirectory() as cache_dir:
-            t0 = time.perf_counter()
-            data = flexible_body(spec, cache_dir=cache_dir)
-            total = time.perf_counter() - t0
-            t0 = time.perf_counter()
-            hit = flexible_body(spec, cache_dir=cache_dir)
-            t_hit = time.perf_counter() - t0
-            assert hit.from_cache
-        t = data.timings_s
-        rows.append((mesh, int(t["dof"]), t["mesh"], t["assembly"], t["reduction"], t["ffrf_terms"], total, t_hit))
-        print(f"\n{spec.name} / {mesh}: {int(t['dof'])} DOF, {data.body.n_modes} flexible modes "
-              f"({data.body.n_static_modes} static + {data.body.fixed_interface_frequencies_hz.size} "
-              f"fixed-interface <= {spec.reduction.max_frequency_hz:.0f} Hz)")
-        for key in ("mesh", "assembly", "reduction", "reduction.factorisation", "reduction.static_modes",
-                    "reduction.fixed_interface_modes", "reduction.orthogonalisation", "ffrf_terms"):
-            print(f"  {key:34s} {t[key]:8.2f} s")
-        print(f"  {'geometry -> reduced body (total)':34s} {total:8.2f} s")
-        print(f"  {'cache hit':34s} {t_hit:8.3f} s")
-        if args.exudyn_hcb:
-            from exudyn.FEM import FEMinterface, HCBstaticModeSelection
+    timed: dict[tuple[str, float], str] = {}
+    print(f"load average at start: {os.getloadavg()[0]:.2f} (1 min), {os.getloadavg()[1]:.2f} (5 min)")
+    for joints in args.joints:
+        for mesh in args.meshes:
+            spec = BodySpec(joint_model=joints, mesh_size=mesh)
+            same = timed.get((joints, spec.maxh_m()))
+            if same is not None:
+                print(f"\n{spec.name} / {mesh}: maxh {spec.maxh_m()} m, the same mesh as '{same}' "
+                      "(not rebuilt)")
+                earlier = next(r[2:] for r in rows if r[:2] == (joints, same))
+                rows.append((joints, f"{mesh} (= {same})", *earlier))
+                continue
+            timed[(joints, spec.maxh_m())] = mesh
+            with tempfile.TemporaryDirectory() as cache_dir:
+                t0 = time.perf_counter()
+                data = flexible_body(spec, cache_dir=cache_dir)
+                total = time.perf_counter() - t0
+                t0 = time.perf_counter()
+                hit = flexible_body(spec, cache_dir=cache_dir)
+                t_hit = time.perf_counter() - t0
+                assert hit.from_cache
+            t = data.timings_s
+            body = data.body
+            rows.append((joints, mesh, int(t["dof"]), t["mesh"], t["assembly"], t["reduction"],
+                         t["ffrf_terms"], total, t_hit, os.getloadavg()[0]))
+            print(f"\n{spec.name} / {mesh}: {int(t['dof'])} DOF, {body.n_modes} flexible modes "
+                  f"({body.n_static_modes} static + {body.fixed_interface_frequencies_hz.size} "
+                  f"fixed-interface <= {body.fixed_interface_cutoff_hz:.0f} Hz; cut-off asked "
+                  f"{spec.reduction.max_frequency_hz:.0f} Hz), worst estimated error up to "
+                  f"{spec.reduction.check_frequency_hz:.0f} Hz: "
+                  f"{100 * max(body.truncation_error_estimate, default=0.0):.3f} %")
+            for key in STEPS:
+                print(f"  {key:34s} {t.get(key, float('nan')):8.2f} s")
+            print(f"  {'geometry -> reduced body (total)':34s} {total:8.2f} s")
+            print(f"  {'cache hit':34s} {t_hit:8.3f} s")
+            print(f"  load average (1 min) now: {os.getloadavg()[0]:.2f}")
+            if args.exudyn_hcb:
+                from exudyn.FEM import FEMinterface, HCBstaticModeSelection
 
-            fe_model, interfaces = fe_model_and_interfaces(spec)
-            fem = FEMinterface()
-            fem.nodes = {"Position": fe_model.node_positions_m}
-            fem.massMatrix, fem.stiffnessMatrix = fe_model.mass_matrix, fe_model.stiffness_matrix
-            t0 = time.perf_counter()
-            fem.ComputeHurtyCraigBamptonModes(
-                boundaryNodesList=[i.node_indices for i in interfaces],
-                boundaryNodesWeights=[i.node_weights for i in interfaces],
-                nEigenModes=int(data.body.fixed_interface_frequencies_hz.size),
-                computationMode=HCBstaticModeSelection.RBE2, excludeRigidBodyMotion=False)
-            t_exu = time.perf_counter() - t0
-            print(f"  Exudyn ComputeHurtyCraigBamptonModes: {t_exu:.1f} s "
-                  f"(ours: {t['reduction']:.1f} s incl. orthogonalisation; ratio {t_exu / t['reduction']:.1f}x)")
-    print("\n| mesh | DOF | mesh [s] | assembly [s] | reduction [s] | FFRF terms [s] | total [s] | cache hit [s] |")
-    print("|---|---:|---:|---:|---:|---:|---:|---:|")
+                fe_model, interfaces = fe_model_and_interfaces(spec)
+                fem = FEMinterface()
+                fem.nodes = {"Position": fe_model.node_positions_m}
+                fem.massMatrix, fem.stiffnessMatrix = fe_model.mass_matrix, fe_model.stiffness_matrix
+                t0 = time.perf_counter()
+                fem.ComputeHurtyCraigBamptonModes(
+                    boundaryNodesList=[i.node_indices for i in interfaces],
+                    boundaryNodesWeights=[i.node_weights for i in interfaces],
+                    nEigenModes=int(body.fixed_interface_frequencies_hz.size),
+                    computationMode=HCBstaticModeSelection.RBE2, excludeRigidBodyMotion=False)
+                t_exu = time.perf_counter() - t0
+                print(f"  Exudyn ComputeHurtyCraigBamptonModes: {t_exu:.1f} s (ours: {t['reduction']:.1f} s "
+                      f"incl. orthogonalisation; ratio {t_exu / t['reduction']:.1f}x)")
+    print("\n| joints | mesh | DOF | mesh [s] | assembly [s] | reduction [s] | FFRF terms [s] | total [s] "
+          "| cache hit [s] | load (1 min) |")
+    print("|---|---|---:|---:|---:|---:|---:|---:|---:|---:|")
     for r in rows:
-        print(f"| {r[0]} | {r[1]} | {r[2]:.1f} | {r[3]:.1f} | {r[4]:.1f} | {r[5]:.1f} | {r[6]:.1f} | {r[7]:.3f} |")
+        print(f"| {r[0]} | {r[1]} | {r[2]} | {r[3]:.1f} | {r[4]:.1f} | {r[5]:.1f} | {r[6]:.1f} | {r[7]:.1f} "
+              f"| {r[8]:.3f} | {r[9]:.2f} |")
 
 
 if __name__ == "__main__":
