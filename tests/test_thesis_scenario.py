@@ -107,3 +107,36 @@ def test_linearised_truth_modes_where_the_fit_put_them():
         assert held.frequency_hz[j] == pytest.approx(f_hz, rel=0.02)
         assert held.damping_ratio[j] == pytest.approx(zeta, rel=0.1)
         assert held.descriptions[j].startswith("bracket left")
+
+
+def test_average_identifications_keeps_the_modes_both_references_found():
+    from exudyn_study.virtual_rig.thesis import average_identifications
+
+    a = [{"frequency_hz": 13.0, "damping_ratio": 0.010, "mpc": 0.9},
+         {"frequency_hz": 20.0, "damping_ratio": 0.020, "mpc": 0.8},
+         {"frequency_hz": 37.0, "damping_ratio": 0.012, "mpc": 0.1}]   # only in the first run
+    b = [{"frequency_hz": 20.1, "damping_ratio": 0.030, "mpc": 0.6},     # 0.5 % apart: the same mode
+         {"frequency_hz": 13.05, "damping_ratio": 0.012, "mpc": 1.0},
+         {"frequency_hz": 44.0, "damping_ratio": 0.02}]                  # only in the second run
+    avg = average_identifications([a, b])
+    assert [m["frequency_hz"] for m in avg] == pytest.approx([13.025, 20.05])
+    assert [m["damping_ratio"] for m in avg] == pytest.approx([0.011, 0.025])
+    assert [m["mpc"] for m in avg] == pytest.approx([0.95, 0.7])
+    assert average_identifications([a]) == [dict(m) for m in a]
+    assert average_identifications([a, b], rtol=0.001) == []
+    with pytest.raises(InputError, match="no identification"):
+        average_identifications([])
+
+
+def test_a_mode_table1_lacks_stays_extra_instead_of_shifting_the_pairs():
+    """Table 1 at +3 % plus a mode at 25.8 Hz (between rows 21.21 and 32.69): without the cap on the
+    frequency error the extra mode would take the 32.69 row and push the rest up by one."""
+    f = np.sort(np.append(TABLE_HZ * 1.03, 25.8))
+    z = np.full(f.size, 0.02)
+    rows = compare_table1(f, z)
+    assert all(r["freq_error"] == pytest.approx(0.03) for r in rows)
+    assert [f[i] for i in rows[-1]["extra"]] == [25.8]
+    far = compare_table1([5.0, 13.0], [0.01, 0.01])  # 5 Hz is 58 % below the lowest row: no pair
+    assert [r["index"] for r in far] == [None, 1] + [None] * 8 and far[-1]["extra"] == [0]
+    with pytest.raises(InputError, match="max_freq_error"):
+        compare_table1(TABLE_HZ, TABLE_ZETA, max_freq_error=0.0)
