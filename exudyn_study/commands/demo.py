@@ -110,7 +110,8 @@ def _virtual_rig(out: Path) -> dict:
     from ..identify import identify_recording, write_modes_json
     from ..identify.plots import plot_all
     from ..recording import read_recording
-    from ..virtual_rig import THESIS_TABLE1, run_virtual_test
+    from ..virtual_rig import run_virtual_test
+    from ..virtual_rig.thesis import compare_table1
 
     out.mkdir(parents=True, exist_ok=True)
     t0 = time.perf_counter()
@@ -124,12 +125,29 @@ def _virtual_rig(out: Path) -> dict:
     )
     write_modes_json(res.model, out / "thesis_modes.json")
     plot_all(res, out / "figures")
-    print("      EMA of the white-noise recording vs thesis Table 1:")
-    for mode in res.model.modes:
-        f_t, z_t, text = min(THESIS_TABLE1, key=lambda row: abs(row[0] - mode.frequency_hz))
+    rows = compare_table1(
+        [m.frequency_hz for m in res.model.modes], [m.damping_ratio for m in res.model.modes]
+    )
+    n_both = sum(r["within_10pct"] for r in rows)
+    print(
+        "      EMA of the white-noise recording vs thesis Table 1 (one-to-one pairing): "
+        f"{n_both}/10 within 10 % in frequency and damping"
+    )
+    for r in rows:
+        ident = (
+            f"{r['frequency_hz']:7.2f} Hz {100 * r['damping_ratio']:5.2f} %"
+            if r["index"] is not None
+            else "      (no mode)  "
+        )
         print(
-            f"      {mode.frequency_hz:7.2f} Hz {100 * mode.damping_ratio:5.2f} %   Table 1: {f_t:6.2f} Hz "
-            f"{100 * z_t:5.2f} % ({text})"
+            f"      Table 1 {r['table_hz']:6.2f} Hz {100 * r['table_zeta']:5.2f} % "
+            f"({r['description']}): {ident}"
+        )
+    extra = rows[-1].get("extra", [])
+    if extra:
+        print(
+            "      identified modes Table 1 lacks: "
+            + ", ".join(f"{res.model.modes[i].frequency_hz:.2f} Hz" for i in extra)
         )
     figures: dict = {}
     diagnosis = diagnose_rig(3, [paths[0], paths[2]], [paths[1]], damping="table6", figures=figures)
