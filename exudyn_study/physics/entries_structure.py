@@ -16,18 +16,9 @@ import numpy as np
 
 from ..errors import InputError
 from .catalogue import Parameter, PhysicsEntry, register
-from .entries_more import exudyn_mesh_nodes
+from .entries_more import _RUBBER_REGION, _rubber_body, exudyn_mesh_nodes
 
 __all__ = ["BUSHING_STIFFNESS", "rubber_pad", "pad_spring_matrix"]
-
-_RUBBER_REGION = "bracket_left_rubber"
-
-
-def _rubber_body(model) -> str | None:
-    for name, handle in model.bodies.items():
-        if _RUBBER_REGION in handle.body.region_nodes:
-            return name
-    return None
 
 
 def rubber_pad(body, region: str = _RUBBER_REGION) -> dict:
