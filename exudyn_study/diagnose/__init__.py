@@ -7,7 +7,9 @@ Both paths return a :class:`~exudyn_study.diagnose.schema.Diagnosis` (JSON schem
   excitation levels; the nominal model is a linear modal model identified from the
   lowest-level recording; finds, names and fits joint nonlinearities (friction micro-slip,
   stiffening, clearance) across sensor-pair interfaces;
-- :func:`exudyn_study.diagnose.rig.diagnose_rig`: the chassis on the rig (model variants 1-3).
+- :func:`exudyn_study.diagnose.rig.diagnose_rig`: the chassis on the rig (model variants 1-3);
+  its candidates come from a registry (catalogue entry -> factory of hypotheses):
+  :func:`register_rig_candidate` adds a user's own entry without touching the pipeline.
 
 :mod:`.report` writes the HTML report with figures, :mod:`.testbench` simulates a small
 two-beam structure with a bolted lap joint at several levels (a structure of our own for
@@ -16,6 +18,16 @@ neither exudyn nor ngsolve.
 """
 
 from .generic import GenericSettings, check_recordings, diagnose_generic
+from .rig_candidates import register_rig_candidate, unregister_rig_candidate
 from .schema import Diagnosis, Finding, read_json
 
-__all__ = ["Diagnosis", "Finding", "read_json", "diagnose_generic", "GenericSettings", "check_recordings"]
+__all__ = [
+    "Diagnosis",
+    "Finding",
+    "read_json",
+    "diagnose_generic",
+    "GenericSettings",
+    "check_recordings",
+    "register_rig_candidate",
+    "unregister_rig_candidate",
+]
