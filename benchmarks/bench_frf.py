@@ -39,6 +39,7 @@ def main(argv=None) -> int:
     )
     parser.add_argument("--duration", type=float, default=80.0)
     parser.add_argument("--seed", type=int, default=1)
+    parser.add_argument("--plot", help="PNG: FRF overlays (model, Welch H1, LRM) at ARFVZ, ARFVY and ARFHY")
     args = parser.parse_args(argv)
 
     from exudyn_study import modal
@@ -75,6 +76,7 @@ def main(argv=None) -> int:
         fine = fine * fade_in(fine.size, 4000.0, 0.25)
         x = fine[::4]
         model.drive.set_signal(x, 1000.0)
+        overlays = {}
         for method in args.method:
             t0 = time.perf_counter()
             if method == "linear":
@@ -105,6 +107,7 @@ def main(argv=None) -> int:
                     frf_db_error(lrm.H[:, 0], frf_linear(lin, lrm.freq_hz)[:, 0, :], lrm.freq_hz),
                 )
             )
+            overlays[method] = (f, h1, lrm)
             for label, err in rows:
                 worst = np.argsort(err)[::-1][:3]
                 print(
@@ -112,7 +115,39 @@ def main(argv=None) -> int:
                     f"median {np.nanmedian(err):.3f} dB, max {np.nanmax(err):.2f} dB; worst "
                     + ", ".join(f"{lin.sensor_names[i]} {err[i]:.2f}" for i in worst)
                 )
+        if args.plot:
+            _plot(args.plot, lin, overlays, frf_linear)
+            print(f"\nwrote {args.plot}")
     return 0
+
+
+def _plot(path, lin, overlays, frf_linear, channels=("ARFVZ", "ARFVY", "ARFHY")) -> None:
+    import matplotlib
+
+    matplotlib.use("Agg")
+    import matplotlib.pyplot as plt
+
+    from exudyn_study.atomic import atomic_write
+
+    names = list(lin.sensor_names)
+    fig, axes = plt.subplots(len(channels), 1, figsize=(10, 3.2 * len(channels)), sharex=True)
+    for ax, ch in zip(axes, channels, strict=True):
+        i = names.index(ch)
+        first = next(iter(overlays.values()))
+        fm = first[2].freq_hz
+        ax.semilogy(fm, np.abs(frf_linear(lin, fm)[i, 0]), "k-", lw=2.2, label="linearised model")
+        for method, (f, h1, lrm) in overlays.items():
+            band = (f >= 3.4) & (f <= 59.1)
+            ax.semilogy(f[band], np.abs(h1[i, band]), lw=0.8, alpha=0.8, label=f"{method}: Welch H1")
+            ax.semilogy(lrm.freq_hz, np.abs(lrm.H[i, 0]), "--", lw=1.0, label=f"{method}: LRM")
+        ax.set_ylabel(f"|{ch} / drive| (m/s^2)/m")
+        ax.grid(True, which="both", alpha=0.3)
+    axes[0].legend(fontsize=8, ncol=2)
+    axes[-1].set_xlabel("frequency (Hz)")
+    axes[0].set_title("Simulated FRFs vs the linearised model (80 s white noise)")
+    fig.tight_layout()
+    atomic_write(path, lambda tmp: fig.savefig(tmp, dpi=110, format="png"), "--plot")
+    plt.close(fig)
 
 
 if __name__ == "__main__":
