@@ -62,11 +62,12 @@ def _build_mini_frame():
 def mini_bodies():
     """{'chassis': mini frame, 'rear_foundation': the real foundation} as FlexibleBodyData."""
     from exudyn_study import cache
-    from exudyn_study.bodies import BodySpec, FlexibleBodyData, _from_arrays, flexible_body
+    from exudyn_study.bodies import BodySpec, FlexibleBodyData, _from_arrays, _source_digest, flexible_body
 
     RIG_TEST_CACHE.mkdir(parents=True, exist_ok=True)
-    arrays, hit = cache.cached({"test": "mini_frame", "version": MINI_FRAME_VERSION}, _build_mini_frame,
-                               RIG_TEST_CACHE)
+    # keyed by the source of the body pipeline too: a change in fe/ or reduction rebuilds the fixture
+    key = {"test": "mini_frame", "version": MINI_FRAME_VERSION, "source": _source_digest()}
+    arrays, hit = cache.cached(key, _build_mini_frame, RIG_TEST_CACHE)
     body, ffrf = _from_arrays(arrays)
     frame = FlexibleBodyData(body=body, ffrf=ffrf, timings_s={}, from_cache=hit)
     foundation = flexible_body(BodySpec(kind="rear_foundation"), cache_dir=os.fspath(RIG_TEST_CACHE))
@@ -192,13 +193,13 @@ def mini_model3_bodies():
     """Mini Model 3: {'frame', 'tank_left', 'tank_right', 'bracket_left', 'bracket_right',
     'rear_foundation'} as FlexibleBodyData, each reduced once and cached in the temp directory."""
     from exudyn_study import cache
-    from exudyn_study.bodies import FlexibleBodyData, _from_arrays
+    from exudyn_study.bodies import FlexibleBodyData, _from_arrays, _source_digest
 
     RIG_TEST_CACHE.mkdir(parents=True, exist_ok=True)
     out = {}
     for comp in ("frame", "tank_left", "tank_right", "bracket_left", "bracket_right"):
         key = {"test": "mini_model3", "component": comp, "version": MINI_MODEL3_VERSION,
-               "frame_version": MINI_FRAME_VERSION}
+               "frame_version": MINI_FRAME_VERSION, "source": _source_digest()}
         arrays, hit = cache.cached(key, lambda c=comp: _build_mini_model3_body(c), RIG_TEST_CACHE)
         body, ffrf = _from_arrays(arrays)
         out[comp] = FlexibleBodyData(body=body, ffrf=ffrf, timings_s={}, from_cache=hit)
