@@ -900,6 +900,19 @@ def diagnose_rig(
             },
             "relative_pseudo_damage": _damage(hold_recs, sims_ho, sims_ho1),
         }
+        if fit["holdout_after"] > fit["holdout_before"]:
+            # it fits the training recordings but not the held-out ones: not a finding
+            labels = " + ".join(f["h"].label for f in batch)
+            say(
+                f"{labels} worsens the held-out error ({fit['holdout_before']:.4f} -> "
+                f"{fit['holdout_after']:.4f}): not accepted"
+            )
+            carry([])
+            stop_reason = (
+                f"the best fit ({labels}) improves the training recordings but worsens the held-out error "
+                f"({fit['holdout_before']:.3g} -> {fit['holdout_after']:.3g})"
+            )
+            break
         if len(batch) > 1:
             fit["together_with"] = [f["h"].label for f in batch]  # the fit is that of the whole round
         for f in batch:
