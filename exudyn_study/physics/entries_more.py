@@ -256,14 +256,19 @@ def _rubber_body(model) -> str | None:
     return None
 
 
-def _check_bushing_location(model, location):
-    if location not in (None, "bracket_left"):
-        raise InputError(f"bushing_stiffening: location {location!r}; expected None or 'bracket_left' "
-                         "(the left mudguard bracket carries the only rubber bushing)")
-    if _rubber_body(model) is None:
-        raise InputError("bushing_stiffening: no body of this model has the rubber region "
-                         f"{_RUBBER_REGION!r}; bodies {sorted(model.bodies)}")
-    return "bracket_left"
+def rubber_pad_location_check(entry_name: str):
+    """Return the ``check_location`` of an entry acting on the left bracket's rubber pad (the only one)."""
+
+    def check(model, location):
+        if location not in (None, "bracket_left"):
+            raise InputError(f"{entry_name}: location {location!r}; expected None or 'bracket_left' "
+                             "(the left mudguard bracket carries the only rubber bushing)")
+        if _rubber_body(model) is None:
+            raise InputError(f"{entry_name}: no body of this model has the rubber region "
+                             f"{_RUBBER_REGION!r}; bodies {sorted(model.bodies)}")
+        return "bracket_left"
+
+    return check
 
 
 def _rubber_faces(body, count: int = 8) -> tuple[np.ndarray, np.ndarray]:
@@ -319,7 +324,7 @@ third-harmonic ratio grows as the square of the level; no even harmonics.
     ),
     add_items=_add_bushing_stiffening,
     locations="None or 'bracket_left' (the left mudguard bracket's rubber bushing)",
-    check_location=_check_bushing_location,
+    check_location=rubber_pad_location_check("bushing_stiffening"),
 ))
 
 

@@ -14,9 +14,8 @@ from __future__ import annotations
 
 import numpy as np
 
-from ..errors import InputError
 from .catalogue import Parameter, PhysicsEntry, register
-from .entries_more import _RUBBER_REGION, _rubber_body, exudyn_mesh_nodes
+from .entries_more import _RUBBER_REGION, _rubber_body, exudyn_mesh_nodes, rubber_pad_location_check
 
 __all__ = ["BUSHING_STIFFNESS", "rubber_pad", "pad_spring_matrix"]
 
@@ -73,16 +72,6 @@ def pad_spring_matrix(pad: dict, shear_modulus_pa: float, compression_modulus_pa
             k[axis] = shear_modulus_pa * area / t
             k[3 + axis] = compression_modulus_pa * area * ext[across] ** 2 / 12.0 / t
     return np.diag(k)
-
-
-def _check_pad_location(model, location):
-    if location not in (None, "bracket_left"):
-        raise InputError(f"bushing_stiffness: location {location!r}; expected None or 'bracket_left' "
-                         "(the left mudguard bracket carries the only rubber bushing)")
-    if _rubber_body(model) is None:
-        raise InputError("bushing_stiffness: no body of this model has the rubber region "
-                         f"{_RUBBER_REGION!r}; bodies {sorted(model.bodies)}")
-    return "bracket_left"
 
 
 def _face_marker(model, body_name: str, nodes, centre_m) -> int:
@@ -148,5 +137,5 @@ frequency. The response is level-independent (linear).
     ),
     add_items=_add_bushing_stiffness,
     locations="None or 'bracket_left' (the left mudguard bracket's rubber bushing)",
-    check_location=_check_pad_location,
+    check_location=rubber_pad_location_check("bushing_stiffness"),
 ))
