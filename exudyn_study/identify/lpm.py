@@ -138,8 +138,8 @@ def estimate_frf_lpm(
     powers = np.vander(offsets, degree + 1, increasing=True).astype(complex)  # (L, R+1)
     idx = lines[:, None] + offsets[None, :]  # (K, L)
     n_out, n_in = y.shape[0], u.shape[0]
-    h = np.full((n_out, n_in, freq.size), np.nan, dtype=complex)
-    coherence = np.full((n_out, n_in, freq.size), np.nan)
+    h = np.empty((n_out, n_in, lines.size), dtype=complex)
+    coherence = np.empty((n_out, n_in, lines.size))
     y_local = spectrum_y[:, idx]  # (n_out, K, L)
     dof = n_lines - n_par
     for i in range(n_in):
@@ -163,15 +163,13 @@ def estimate_frf_lpm(
         residual = y_local - (regressor @ coef[..., None])[..., 0]
         noise = np.sum(np.abs(residual) ** 2, axis=2) / dof  # (n_out, K)
         total = np.mean(np.abs(y_local) ** 2, axis=2)
-        h[:, i, lines] = coef[:, :, 0]
+        h[:, i] = coef[:, :, 0]
         with np.errstate(invalid="ignore", divide="ignore"):
-            coherence[:, i, lines] = np.clip(1.0 - noise / total, 0.0, 1.0)
-    keep = np.zeros(freq.size, bool)
-    keep[lines] = True
+            coherence[:, i] = np.clip(1.0 - noise / total, 0.0, 1.0)
     return FRF(
-        freq_hz=freq[keep],
-        H=h[:, :, keep],
-        coherence=coherence[:, :, keep],
+        freq_hz=freq[lines],
+        H=h,
+        coherence=coherence,
         estimator=method.upper(),
         resolution_hz=float(sample_rate_hz / n_samples),
         n_averages=1,
