@@ -63,7 +63,8 @@ class BodySpec:
         Model-3 component ('frame', 'tank_left', 'tank_right', 'bracket_left',
         'bracket_right').
     mesh_size : str or float
-        'coarse', 'production' or a maximum element size in m.
+        'production' (default), 'coarse' or a maximum element size in m (with the production
+        refinement); see :data:`exudyn_study.fe.chassis.MESH_SIZES`.
     reduction : ReductionSettings
     water_mass_per_tank_kg : float
         Water in each fuel tank (thesis: 222 kg).
@@ -72,7 +73,7 @@ class BodySpec:
     kind: str = "chassis"
     joint_model: str = "simple"
     component: str | None = None
-    mesh_size: str | float = "coarse"
+    mesh_size: str | float = "production"
     reduction: ReductionSettings = field(default_factory=ReductionSettings)
     water_mass_per_tank_kg: float = 222.0
 
@@ -102,11 +103,13 @@ class BodySpec:
 
     def maxh_m(self) -> float:
         """Maximum element size in m."""
-        if isinstance(self.mesh_size, str):
-            from .fe.chassis import MESH_SIZES
+        return self.mesh_parameters()["maxh"]
 
-            return float(MESH_SIZES[self.mesh_size])
-        return float(self.mesh_size)
+    def mesh_parameters(self) -> dict:
+        """Keyword arguments of :meth:`~exudyn_study.fe.chassis.ChassisGeometry.generate_mesh`."""
+        from .fe.chassis import mesh_parameters
+
+        return mesh_parameters(self.mesh_size)
 
     def geometry(self):
         """The :class:`~exudyn_study.fe.chassis.ChassisGeometry` of this body."""
@@ -138,6 +141,7 @@ class BodySpec:
             "component": self.component,
             "design": design,
             "maxh_m": self.maxh_m(),
+            "mesh": self.mesh_parameters(),
             "mesh_grading": chassis.MESH_GRADING,
             "reduction": dataclasses.asdict(self.reduction),
             "materials": {k: dataclasses.asdict(v) for k, v in MATERIALS.items()},
@@ -173,7 +177,7 @@ def fe_model_and_interfaces(spec: BodySpec, timings: dict | None = None):
     timings = {} if timings is None else timings
     t0 = time.perf_counter()
     geometry = spec.geometry()
-    ngmesh = geometry.generate_mesh(spec.maxh_m())
+    ngmesh = geometry.generate_mesh(**spec.mesh_parameters())
     timings["mesh"] = time.perf_counter() - t0
     t0 = time.perf_counter()
     parts = [PartMaterial(p.region, p.material, p.added_mass_kg, p.component) for p in geometry.parts]

@@ -70,7 +70,7 @@ def configure(parser: argparse.ArgumentParser) -> None:
         metavar="NAME",
         help="damping function of the rig bodies that are not calibrated (default adams-default)",
     )
-    parser.add_argument("--mesh-size", default="coarse", help="'coarse', 'production' or a size in m")
+    parser.add_argument("--mesh-size", default="production", help="'production' (default), 'coarse' or a size in m")
     parser.add_argument(
         "--regularization",
         type=float,

@@ -748,7 +748,7 @@ def run_grid(
     reg: float = 0.05,
     calibrations: Mapping[int, str | os.PathLike | Mapping] | None = None,
     builder: Callable[[int, object], object] | None = None,
-    mesh_size="coarse",
+    mesh_size="production",
     cache_dir=None,
     plots: bool = True,
     progress: Callable[[str], None] | None = None,

@@ -60,8 +60,8 @@ def configure(parser: argparse.ArgumentParser) -> None:
                         help="relative regularisation of H^-1 (default 0.05)")
     parser.add_argument("--frf", choices=("model", "identify"), default="model",
                         help="H: the model's exact FRF (default) or a white-noise identification run")
-    parser.add_argument("--mesh-size", default="coarse",
-                        help="'coarse' (default), 'production' or a size in m")
+    parser.add_argument("--mesh-size", default="production",
+                        help="'production' (default), 'coarse' or a size in m")
     parser.add_argument("--cache-dir", default=None, help="flexible-body cache directory")
     parser.add_argument("--out", required=True, metavar="REC_OUT",
                         help="simulated recording with the final drive")

@@ -20,7 +20,7 @@ def configure(parser: argparse.ArgumentParser) -> None:
     parser.add_argument("--damping", default="adams-default",
                         help="damping function: adams-default, step, constant-1, constant-2, "
                              "or table6 (thesis Table 6 per body, model 3)")
-    parser.add_argument("--mesh", default="coarse", help="mesh size: coarse, production or a size in m")
+    parser.add_argument("--mesh", default="production", help="mesh size: production (default), coarse or a size in m")
     parser.add_argument("--bushing", action="store_true",
                         help="model 3: join the components by 6-DOF spring-damper bushings (default: fixed joints)")
     parser.add_argument("--max-frequency", type=float, default=100.0, help="highest mode frequency in Hz")

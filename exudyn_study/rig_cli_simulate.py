@@ -23,7 +23,7 @@ def configure(parser: argparse.ArgumentParser) -> None:
                              "linearised model")
     parser.add_argument("--step", type=float, default=None,
                         help="Exudyn time step in s (default 1/10 ms; exudyn-reduced 1/16 ms)")
-    parser.add_argument("--mesh", default="coarse", help="mesh size: coarse, production or a size in m")
+    parser.add_argument("--mesh", default="production", help="mesh size: production (default), coarse or a size in m")
     parser.add_argument("--bushing", action="store_true", help="model 3: bushings instead of fixed joints")
     parser.add_argument("--cache-dir", default=None, help="flexible-body cache directory")
     parser.add_argument("--out", required=True, help="output recording (.h5 native, .uff UFF58)")

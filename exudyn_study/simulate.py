@@ -527,7 +527,7 @@ def simulate_exudyn_reduced(lin, drive, settings: IntegratorSettings = REDUCED_S
     settings : IntegratorSettings
         Default step 1/16 ms. The error is second order in h and, on weak channels,
         dominated by the kHz response (integrated with a period error, then aliased
-        into the 1 kHz samples). Model 1 coarse, 42 channels, < 70 Hz rms error vs the
+        into the 1 kHz samples). Model 1 (0.12 m mesh), 42 channels, < 70 Hz rms error vs the
         exact solution: 1/4 ms 7.7 % (5.8x real time), 1/8 ms 1.9 % (3.2x), 1/16 ms
         0.5 % (1.6x), 1/32 ms 0.1 % (0.8x); at 1 ms 107 %. The mini test frame (a
         0.13 %-damped mode, a weak Y channel) needs 1/32 ms for 1.4 %.

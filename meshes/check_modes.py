@@ -22,15 +22,15 @@ import numpy as np
 import scipy.sparse as sp
 from scipy.sparse.linalg import LinearOperator, eigsh
 
-from exudyn_study.fe.chassis import MESH_SIZES, ChassisDesign, chassis_geometry
+from exudyn_study.fe.chassis import MESH_SIZES, ChassisDesign, chassis_geometry, mesh_parameters
 from exudyn_study.materials import MATERIALS
 
 
-def clamped_modes(design: ChassisDesign, maxh: float, n_modes: int):
+def clamped_modes(design: ChassisDesign, mesh_size, n_modes: int):
     """Return frequencies (Hz), energy shares per component, ndof, timings."""
     t0 = time.perf_counter()
     geo = chassis_geometry(design)
-    ngmesh = geo.generate_mesh(maxh)
+    ngmesh = geo.generate_mesh(**mesh_parameters(mesh_size))
     t_mesh = time.perf_counter() - t0
     mesh = ngs.Mesh(ngmesh)
     t0 = time.perf_counter()
@@ -120,14 +120,15 @@ def main(argv=None) -> None:
     ap.add_argument("--size", default="coarse", help="coarse | production | maxh in m")
     ap.add_argument("--modes", type=int, default=12)
     args = ap.parse_args(argv)
-    maxh = MESH_SIZES[args.size] if args.size in MESH_SIZES else float(args.size)
+    size = args.size if args.size in MESH_SIZES else float(args.size)
+    params = mesh_parameters(size)
     res = {}
     for jm in ("simple", "detailed"):
-        res[jm] = r = clamped_modes(ChassisDesign(joint_model=jm), maxh, args.modes)
+        res[jm] = r = clamped_modes(ChassisDesign(joint_model=jm), size, args.modes)
         print(f"{jm:9s}: {r['ndof']} DOF ({r['nfree']} free), mass {r['mass']:.1f} kg, mesh "
               f"{r['t_mesh']:.1f} s, assembly {r['t_asm']:.1f} s, eigsh {r['t_eig']:.1f} s")
     s, d = res["simple"], res["detailed"]
-    print(f"\nclamped at the five rig interfaces, maxh = {maxh} m")
+    print(f"\nclamped at the five rig interfaces, mesh {args.size}: {params}")
     print(f"{'mode':>4} {'simple Hz':>10} {'detailed Hz':>12} {'diff %':>7}  dominant (simple) | (detailed)")
     for k in range(args.modes):
         fs, fd = s["freqs"][k], d["freqs"][k]

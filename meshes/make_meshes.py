@@ -25,6 +25,7 @@ from exudyn_study.fe.chassis import (
     MESH_SIZES,
     ChassisDesign,
     chassis_geometry,
+    mesh_parameters,
     rear_foundation_geometry,
 )
 
@@ -51,13 +52,13 @@ def main(argv=None) -> None:
     args = ap.parse_args(argv)
     out = Path(args.out)
     out.mkdir(parents=True, exist_ok=True)
-    maxh = MESH_SIZES[args.size]
+    params = mesh_parameters(args.size)
     manifest_path = out / "manifest.json"
     manifest = json.loads(manifest_path.read_text()) if manifest_path.exists() else {}
     for stem, factory, design, comp in mesh_jobs(args.size):
         t0 = time.perf_counter()
         geo = factory()
-        mesh = geo.generate_mesh(maxh)
+        mesh = geo.generate_mesh(**params)
         dt = time.perf_counter() - t0
         path = out / f"{stem}.vol.gz"
         fd, tmp = tempfile.mkstemp(suffix=".vol.gz", dir=out)
@@ -68,7 +69,8 @@ def main(argv=None) -> None:
         digest = hashlib.sha256(path.read_bytes()).hexdigest()
         manifest[path.name] = {
             "component": comp,
-            "maxh_m": maxh,
+            "maxh_m": params["maxh"],
+            "mesh": params,
             "size": args.size,
             "design": None if design is None else dataclasses.asdict(design),
             "elements": ne,

@@ -23,7 +23,7 @@ from pathlib import Path
 def configure(parser: argparse.ArgumentParser) -> None:
     """Add the arguments of ``demo``."""
     parser.add_argument("--out", default="demo_out", help="output directory (default demo_out)")
-    parser.add_argument("--mesh", default="coarse", help="mesh of the chassis body (default coarse)")
+    parser.add_argument("--mesh", default="production", help="mesh of the chassis body (default production)")
     parser.add_argument("--skip-fe", action="store_true", help="skip the FE/reduction step")
     parser.add_argument("--seed", type=int, default=1, help="seed of the synthetic test")
     parser.add_argument(

@@ -17,7 +17,7 @@ def configure(parser: argparse.ArgumentParser) -> None:
                         help="bolted-joint representation: simple (Model 1) or detailed (Model 2)")
     parser.add_argument("--component", default=None,
                         help="a Model-3 component (frame, tank_left, tank_right, bracket_left, bracket_right)")
-    parser.add_argument("--mesh", default="coarse", help="coarse, production or a max element size in m")
+    parser.add_argument("--mesh", default="production", help="production (default), coarse or a max element size in m")
     parser.add_argument("--max-frequency", type=float, default=300.0,
                         help="fixed-interface modes kept up to this frequency in Hz (default 300)")
     parser.add_argument("--no-cache", action="store_true", help="rebuild and do not touch the cache")

@@ -74,34 +74,60 @@ __all__ = [
     "COMPONENTS",
     "JOINT_MODELS",
     "MESH_SIZES",
+    "MESH_REFINEMENT",
+    "mesh_parameters",
 ]
 
-#: Global mesh sizes (``maxh`` in m) for :meth:`ChassisGeometry.generate_mesh`.
-#: Measured (second-order, 3 DOF per node, 2 shared cores): assembly with simple
-#: joints ~160 k DOF, detailed joints ~260 k DOF at 0.12 m; 0.2 m still gives
-#: ~144 k DOF (simple) because the refinement around the 56 bolts dominates, and
-#: 0.25 m fails to mesh the bolt circles.  So both sizes are 0.12 m: no coarser
-#: assembly mesh keeps the first ten mounted frequencies within a few % of this
-#: one, because all of them are tank/bracket modes governed by local plate bending
-#: at the joints, which this mesh resolves only through Netgen's local refinement
-#: (curvature at the 36 mm bolt circles, ``segmentsperedge`` at the 8-10 mm edges
-#: of ribs and connectors).  Measured against it (clamped, simple joints):
-#: ``segmentsperedge`` 0.2 -> 119 k DOF, tank modes +7..+9 %; the same with the
-#: rib/tank edges kept refined -> 133 k DOF, +1.6..+2.7 %; plus maxh 0.2 on the
-#: tanks -> 116 k DOF, +6.5 %; square equal-area bolts meshed at 0.05 m -> 95 k
-#: DOF, tank and mudguard modes +19..+22 %.  The tank shells, brackets, baffles,
-#: mudguard brackets and connectors alone hold ~half the production DOF.  The
-#: Model-3 component meshes are the small fixtures (a mudguard bracket
-#: ~150-220 vertices, a tank ~1.4 k, the frame ~5 k).
-MESH_SIZES = MappingProxyType({"coarse": 0.12, "production": 0.12})
+#: Global mesh sizes (``maxh`` in m) for :meth:`ChassisGeometry.generate_mesh`; each
+#: named size also sets Netgen's local refinement (:data:`MESH_REFINEMENT`).
+#:
+#: ``production`` (0.12 m, Netgen's default refinement at edges and a curvature safety of
+#: 1 at the 36 mm bolt circles) is what every study, the virtual rig and the CLI use by
+#: default. Measured (second-order, 3 DOF per node): assembly with simple joints 160 617
+#: DOF, detailed joints 262 635 DOF. Its first ten mounted modes are tank and bracket
+#: modes governed by local plate bending at the joints, resolved only through the local
+#: refinement (``segmentsperedge`` at the 8-10 mm edges of ribs and connectors, curvature
+#: at the bolt circles); ``maxh`` alone hardly changes the DOF (0.2 m: ~144 k DOF).
+#:
+#: ``coarse`` (0.2 m, curvature safety 0.5, 0.2 segments per edge) halves the DOF (simple
+#: joints ~81 k) and the build time, for tests and quick looks; it is *not* converged: the
+#: tank and bracket modes come out several per cent high (measured against production in
+#: ``python meshes/check_modes.py --size coarse``; see ``meshes/README.md``). Coarser
+#: still fails to mesh the bolt circles.
+MESH_SIZES = MappingProxyType({"coarse": 0.2, "production": 0.12})
+
+#: Netgen local refinement per named mesh size: ``curvature_safety`` (elements per radius
+#: at curved faces, Netgen's ``curvaturesafety``; default 2) and ``segments_per_edge``
+#: (Netgen's ``segmentsperedge``, elements along short edges; None: Netgen's default 1).
+#: A size given as a number in m uses the production refinement.
+MESH_REFINEMENT = MappingProxyType({
+    "coarse": MappingProxyType({"curvature_safety": 0.5, "segments_per_edge": 0.2}),
+    "production": MappingProxyType({"curvature_safety": 1.0, "segments_per_edge": None}),
+})
+
+
+def mesh_parameters(mesh_size) -> dict:
+    """``maxh`` and refinement for a named mesh size or an element size in m.
+
+    Returns
+    -------
+    dict
+        ``maxh`` (m), ``curvature_safety``, ``segments_per_edge``: the keyword arguments of
+        :meth:`ChassisGeometry.generate_mesh` (besides ``grading``).
+    """
+    if isinstance(mesh_size, str):
+        if mesh_size not in MESH_SIZES:
+            raise InputError(f"mesh size {mesh_size!r}: expected one of {sorted(MESH_SIZES)} or a size in m")
+        return {"maxh": float(MESH_SIZES[mesh_size]), **MESH_REFINEMENT[mesh_size]}
+    if not (isinstance(mesh_size, (int, float)) and math.isfinite(mesh_size) and mesh_size > 0):
+        raise InputError(f"mesh size {mesh_size!r}: expected 'coarse', 'production' or a positive size in m")
+    return {"maxh": float(mesh_size), **MESH_REFINEMENT["production"]}
 
 #: Netgen mesh grading: the element size may grow by this factor per element away
 #: from small features (joint hardware); Netgen's default 0.3 spreads the bolt
 #: refinement over the whole side members.
 MESH_GRADING = 0.8
 
-# Netgen curvature safety: 1 instead of 2 halves the refinement at the bolt circles.
-_CURVATURE_SAFETY = 1.0
 
 #: Component bodies of Model 3 (thesis Section 4.5).
 COMPONENTS = ("frame", "tank_left", "tank_right", "bracket_left", "bracket_right")
@@ -470,16 +496,28 @@ class ChassisGeometry:
     volumes_m3: Mapping[str, float] = field(default_factory=dict)
     component: str | None = None
 
-    def generate_mesh(self, maxh: float, grading: float = MESH_GRADING) -> "netgen.meshing.Mesh":
+    def generate_mesh(
+        self,
+        maxh: float,
+        grading: float = MESH_GRADING,
+        curvature_safety: float = 1.0,
+        segments_per_edge: float | None = None,
+    ) -> "netgen.meshing.Mesh":
         """Generate the first-order tetrahedral volume mesh.
 
         Parameters
         ----------
         maxh : float
-            Global maximum element size in m (see :data:`MESH_SIZES`).
+            Global maximum element size in m (see :data:`MESH_SIZES`;
+            :func:`mesh_parameters` gives all arguments of a named size).
         grading : float
             Netgen mesh grading in (0, 1]: how fast the element size may grow
             away from small features (default :data:`MESH_GRADING`).
+        curvature_safety : float
+            Netgen's ``curvaturesafety``: elements per radius on curved faces (the bolt
+            circles); 1 (default, production) is half Netgen's own refinement.
+        segments_per_edge : float or None
+            Netgen's ``segmentsperedge`` (elements along short edges); None: Netgen's default.
 
         Returns
         -------
@@ -497,9 +535,17 @@ class ChassisGeometry:
         # closeedgefac off: thin walls would otherwise be refined to their thickness
         if not (isinstance(grading, (int, float)) and 0 < grading <= 1):
             raise InputError(f"grading = {grading!r}; expected a number in (0, 1]")
+        if not (math.isfinite(curvature_safety) and curvature_safety > 0):
+            raise InputError(f"curvature_safety = {curvature_safety!r}; expected a positive number")
+        options = {}
+        if segments_per_edge is not None:
+            if not (math.isfinite(segments_per_edge) and segments_per_edge > 0):
+                raise InputError(
+                    f"segments_per_edge = {segments_per_edge!r}; expected a positive number or None")
+            options["segmentsperedge"] = float(segments_per_edge)
         return self.geometry.GenerateMesh(
             maxh=float(maxh), grading=float(grading), closeedgefac=None,
-            curvaturesafety=_CURVATURE_SAFETY)
+            curvaturesafety=float(curvature_safety), **options)
 
     def expected_mass_kg(self, component: str | None = None) -> float:
         """Exact mass in kg (CAD volumes times density, plus smeared mass).

@@ -252,7 +252,7 @@ def _damping_label(damping) -> str:
     return getattr(damping, "__name__", type(damping).__name__)
 
 
-def model_bodies(variant: int, mesh_size="coarse", cache_dir=None, progress: Callable | None = None) -> dict:
+def model_bodies(variant: int, mesh_size="production", cache_dir=None, progress: Callable | None = None) -> dict:
     """Build or load the flexible bodies of ``variant``: name -> FlexibleBodyData.
 
     Raises
@@ -284,7 +284,7 @@ def _check_variant(variant) -> None:
 def build_model(
     variant: int = 1,
     damping="adams-default",
-    mesh_size="coarse",
+    mesh_size="production",
     bushing: BushingParameters | None = None,
     cache_dir=None,
     formulation: str = "linear",
@@ -304,7 +304,7 @@ def build_model(
         function of mode frequency (Hz) returning ratios, a
         :class:`~exudyn_study.damping.PerBody` table (Model 3: thesis Table 6), or a
         mapping body name -> any of these. Evaluated at each body's mode frequencies.
-    mesh_size : {'coarse', 'production'} or float
+    mesh_size : {'production', 'coarse'} or float
     bushing : BushingParameters, optional
         Model 3 only: join the components with 6-DOF spring-dampers instead of fixed joints.
     cache_dir : path, optional

@@ -379,7 +379,7 @@ def _body_artefact(p: Mapping[str, Any]) -> tuple:
 
 
 def body_frequencies(*, seed: int, kind: str = "chassis", joint_model: str = "simple",
-                     component: str = "", mesh_size: Any = "coarse",
+                     component: str = "", mesh_size: Any = "production",
                      water_mass_per_tank_kg: float = 222.0, max_frequency_hz: float = 300.0,
                      n_modes: int = 10, cache_dir: str = "") -> dict[str, Any]:
     """Free-free frequencies of a reduced flexible body (orthogonalised Craig-Bampton).
@@ -430,7 +430,7 @@ TASKS.register(
             Parameter("joint_model", "str", choices=("simple", "detailed"), default="simple"),
             Parameter("component", "str", default="",
                       choices=("", "frame", "tank_left", "tank_right", "bracket_left", "bracket_right")),
-            Parameter("mesh_size", "any", "m", default="coarse", check=_mesh_size,
+            Parameter("mesh_size", "any", "m", default="production", check=_mesh_size,
                       doc="'coarse', 'production' or element size"),
             Parameter("water_mass_per_tank_kg", "float", "kg", (0.0, 10_000.0), default=222.0),
             Parameter("max_frequency_hz", "float", "Hz", (1.0, 5000.0), default=300.0),
