@@ -1,8 +1,9 @@
 """Simulate a rig model into a :class:`~exudyn_study.recording.Recording`.
 
-Two paths share one drive (the piston displacement, a natural cubic spline through
-samples at :data:`OUTPUT_RATE_HZ`, faded in over ``ramp_s`` so that the model starts at
-rest and consistent):
+Two paths share one drive (the piston displacement: samples at :data:`OUTPUT_RATE_HZ`,
+faded in over ``ramp_s`` so that the model starts at rest and consistent, reconstructed
+band-limited on a grid ``upsampling`` times finer and interpolated there by a natural cubic
+spline, :class:`~exudyn_study.model.rig.Drive`):
 
 ``method='exudyn'`` (:func:`simulate_exudyn`)
     Exudyn's implicit time integration (generalised-alpha) of the assembled model.
@@ -24,10 +25,11 @@ rest and consistent):
 
 ``method='linear'`` (:func:`simulate_linear`)
     The linearised system of :func:`exudyn_study.modal.linearize` integrated *exactly*:
-    within each sample interval the drive is a cubic, so ``psi = (u, u', u'', u''')``
-    obeys ``psi' = J psi`` and one matrix exponential of the augmented system gives the
-    exact discrete map (a generalisation of first-order hold). The state recursion
-    runs mode by mode (diagonalised, ``scipy.signal.lfilter``).
+    within each interval of the drive's fine grid the drive is a cubic, so
+    ``psi = (u, u', u'', u''')`` obeys ``psi' = J psi`` and one matrix exponential of the
+    augmented system gives the exact discrete map (a generalisation of first-order hold);
+    the ``upsampling`` fine intervals of an output interval are summed into one input. The
+    state recursion runs mode by mode at the output rate (diagonalised, ``scipy.signal.lfilter``).
 
 :func:`frf_linear` gives the drive -> sensor-acceleration FRFs of the linearised model by
 complex modal superposition.
@@ -266,12 +268,16 @@ def prepare_drive(signal="white-noise", duration_s: float = 80.0, rms_m: float |
 
 # --------------------------------------------------------------------------------------- linear path
 def _spline_inputs(drive) -> np.ndarray:
-    """psi = (u, u', u'', u''') at the samples (u''' of the interval starting there), (4, N)."""
-    c = drive._coef  # (4, N-1): c0 dt^3 + c1 dt^2 + c2 dt + c3
-    n = drive.samples.size
+    """psi = (u, u', u'', u''') at the spline's knots (u''' of the interval starting there).
+
+    Shape (4, (N - 1) upsampling + 1): the knots of the drive's fine grid (every
+    ``drive.upsampling``-th is a sample instant).
+    """
+    c = drive._coef  # (4, n_knots - 1): c0 dt^3 + c1 dt^2 + c2 dt + c3
+    n = c.shape[1] + 1
     psi = np.zeros((4, n))
     psi[0, :-1], psi[1, :-1], psi[2, :-1], psi[3, :-1] = c[3], c[2], 2.0 * c[1], 6.0 * c[0]
-    h = 1.0 / drive.sample_rate_hz
+    h = 1.0 / drive.spline_rate_hz
     last = c[:, -1]
     psi[0, -1] = ((last[0] * h + last[1]) * h + last[2]) * h + last[3]
     psi[1, -1] = (3.0 * last[0] * h + 2.0 * last[1]) * h + last[2]
@@ -301,12 +307,15 @@ def simulate_linear(lin, drive, chunk: int = 8192) -> np.ndarray:
     ----------
     lin : exudyn_study.modal.LinearSystem
     drive : exudyn_study.model.Drive
-        With its signal set; outputs at its sample instants.
+        With its signal set; outputs at its sample instants. The input over an output
+        interval is the sum of its ``drive.upsampling`` fine cubics, each through the
+        exact map of its fine interval.
     chunk : int
         Samples per block (memory bound).
     """
     a, b, c, d = _state_space(lin)
-    h = 1.0 / drive.sample_rate_hz
+    factor = int(round(drive.spline_rate_hz / drive.sample_rate_hz))
+    h = 1.0 / drive.spline_rate_hz
     m2 = a.shape[0]
     big = np.zeros((m2 + 4, m2 + 4))
     big[:m2, :m2], big[:m2, m2:] = a, b
@@ -321,13 +330,22 @@ def simulate_linear(lin, drive, chunk: int = 8192) -> np.ndarray:
     keep = lam.imag >= 0.0
     weight = np.where(lam.imag > 0.0, 2.0, 1.0)[keep]
     mu, vinv_gamma, cv = mu[keep], vinv_gamma[keep], cv[:, keep] * weight
-    psi = _spline_inputs(drive)
+    # over one output interval: xi <- mu^factor xi + sum_j mu^(factor-1-j) V^-1 Gamma psi(fine knot j)
+    to_end = mu[:, None] ** np.arange(factor - 1, -1, -1)  # (modes, factor)
+    vinv_gamma = (to_end[:, :, None] * vinv_gamma[:, None, :]).reshape(mu.size, factor * 4)
+    mu = mu**factor
+    psi_fine = _spline_inputs(drive)
+    psi = psi_fine[:, ::factor]  # at the output instants
     n_t = psi.shape[1]
     out = np.empty((c.shape[0], n_t))
     xi = np.zeros(mu.size, dtype=complex)
     for k0 in range(0, n_t, chunk):
         k1 = min(n_t, k0 + chunk)
-        g = vinv_gamma @ psi[:, k0:k1]  # (modes, L)
+        # psi at the fine knots of each output interval, (L, factor, 4); none after the last sample
+        m = min(k1, n_t - 1) - k0
+        fine = np.zeros((k1 - k0, factor, 4))
+        fine[:m] = psi_fine[:, k0 * factor: (k0 + m) * factor].T.reshape(m, factor, 4)
+        g = vinv_gamma @ fine.reshape(k1 - k0, factor * 4).T  # (modes, L)
         states = np.empty_like(g)
         for j in range(mu.size):
             w, _ = sps.lfilter([1.0], [1.0, -mu[j]], g[j], zi=[mu[j] * xi[j]])
@@ -554,7 +572,7 @@ def simulate_exudyn_reduced(lin, drive, settings: IntegratorSettings = REDUCED_S
                                            initialCoordinates=z0.tolist(), initialCoordinates_t=v0.tolist()))
     bmat = -np.column_stack([lin.b0, lin.b1, lin.b2])
     coef = drive._coef
-    rate = drive.sample_rate_hz
+    rate = drive.spline_rate_hz
     last = coef.shape[1] - 1
 
     def force(mbs_, t, item, q, q_t):

@@ -179,8 +179,12 @@ def gather_vectors(model, elements=None) -> np.ndarray:
     return np.array(rows).reshape(len(elements), n_q)
 
 
-def _discrete_maps(lin, gather: np.ndarray, h: float):
-    """Diagonalised exact maps of the linear part over one step ``h``."""
+def _discrete_maps(lin, gather: np.ndarray, h: float, drive_pieces: int = 1):
+    """Diagonalised exact maps of the linear part over one step ``h``.
+
+    ``drive_pieces``: the drive is a cubic on each of that many equal parts of the step;
+    ``g_psi`` (n_modes, 4 drive_pieces) then takes their start values one after the other.
+    """
     from ..simulate import _state_space
 
     a, b, c, d = _state_space(lin)
@@ -197,9 +201,14 @@ def _discrete_maps(lin, gather: np.ndarray, h: float):
     e = sla.expm(big * h)
     lam, v = sla.eig(a)
     vinv = np.linalg.inv(v)
+    g_psi = vinv @ e[:m2, m2 : m2 + 4]
+    if drive_pieces > 1:
+        piece = vinv @ sla.expm(big * (h / drive_pieces))[:m2, m2 : m2 + 4]
+        to_end = np.exp(lam * (h / drive_pieces))[:, None] ** np.arange(drive_pieces - 1, -1, -1)
+        g_psi = (to_end[:, :, None] * piece[:, None, :]).reshape(lam.size, 4 * drive_pieces)
     return dict(
         mu=np.exp(lam * h),
-        g_psi=vinv @ e[:m2, m2 : m2 + 4],
+        g_psi=g_psi,
         g_r=vinv @ e[:m2, m2 + 4 :],
         v=v,
         c=c,
@@ -223,12 +232,16 @@ def simulate_local_nonlinear(
         :func:`gather_vectors` of the elements.
     laws : sequence of ForceLaw
     substeps : int
-        Sub-steps per drive sample (the residual force is held over a sub-step).
+        Sub-steps per drive sample (the residual force is held over a sub-step); a divisor
+        or a multiple of ``drive.upsampling`` (the drive's fine intervals), so that the
+        drive's part is integrated exactly.
     return_deltas : bool
         Also return the relative displacements ``delta`` (n_e, N).
 
     Raises
     ------
+    InputError
+        Bad ``substeps`` or mismatched ``gather`` and ``laws``.
     SimulationError
         If the response becomes non-finite (an unstable element law).
     """
@@ -240,9 +253,15 @@ def simulate_local_nonlinear(
         raise InputError(f"{gather.shape[0]} gather vectors for {len(laws)} force laws")
     if not (isinstance(substeps, int) and substeps >= 1):
         raise InputError(f"substeps {substeps!r}; expected an integer >= 1")
+    factor = int(round(drive.spline_rate_hz / drive.sample_rate_hz))
+    if factor % substeps and substeps % factor:
+        raise InputError(f"substeps {substeps}; expected a divisor or a multiple of the drive's upsampling "
+                         f"{factor} (e.g. {factor})")
+    per = max(factor // substeps, 1)  # fine drive intervals per sub-step
+    within = max(substeps // factor, 1)  # sub-steps per fine drive interval
     h_out = 1.0 / drive.sample_rate_hz
     h = h_out / substeps
-    maps = _discrete_maps(lin, gather, h)
+    maps = _discrete_maps(lin, gather, h, per)
     n = lin.size
     v = maps["v"]
     mu, g_psi, g_r = maps["mu"], maps["g_psi"], maps["g_r"]
@@ -252,9 +271,11 @@ def simulate_local_nonlinear(
     dzt = gz @ v[n:]  # delta_t per xi
     gr = gather @ lin.drive_shape  # delta per unit drive
     c_xi = maps["c"] @ v
-    psi_out = _spline_inputs(drive)  # (4, N)
+    psi_fine = _spline_inputs(drive)  # (4, (N - 1) factor + 1) at the drive's knots
+    psi_out = psi_fine[:, ::factor]  # (4, N)
     n_t = psi_out.shape[1]
-    # psi at the sub-steps: the cubic of each interval evaluated at tau = j h
+    # psi at the sub-steps: the cubic of the fine interval evaluated at tau (per == 1), or the knots'
+    # psi of the sub-step's ``per`` fine intervals (per > 1)
     coef = drive._coef
     n_e = len(laws)
     states = [law.initial_state() for law in laws]
@@ -267,17 +288,23 @@ def simulate_local_nonlinear(
     d_out, d_r = maps["d"], maps["d_r"]
     for k in range(n_t):
         last = k == n_t - 1
-        kk = min(k, coef.shape[1] - 1)
-        c0, c1, c2, c3 = coef[:, kk]
+        if per > 1 and not last:
+            knots = psi_fine[:, k * factor : (k + 1) * factor].T.reshape(substeps, 4 * per)
         for j in range(1 if last else substeps):
             if last:
                 psi[:] = psi_out[:, k]
+                psi_in = psi
+            elif per > 1:
+                psi_in = knots[j]
+                psi[:] = psi_in[:4]
             else:
-                tau = taus[j]
+                c0, c1, c2, c3 = coef[:, k * factor + j // within]
+                tau = taus[j % within]
                 psi[0] = ((c0 * tau + c1) * tau + c2) * tau + c3
                 psi[1] = (3.0 * c0 * tau + 2.0 * c1) * tau + c2
                 psi[2] = 6.0 * c0 * tau + 2.0 * c1
                 psi[3] = 6.0 * c0
+                psi_in = psi
             delta = (dz @ xi).real + gr * psi[0]
             delta_t = (dzt @ xi).real + gr * psi[1]
             for e in range(n_e):
@@ -287,7 +314,7 @@ def simulate_local_nonlinear(
                 if return_deltas:
                     deltas[:, k] = delta
             if not last:
-                xi = mu * xi + g_psi @ psi + g_r @ r
+                xi = mu * xi + g_psi @ psi_in + g_r @ r
         if not np.all(np.isfinite(xi)):
             raise SimulationError(
                 f"local-nonlinear simulation diverged at t = {k * h_out:.4f} s; reduce the "
