@@ -53,6 +53,18 @@ def test_zero_residual_reproduces_the_exact_linear_solution():
     assert np.max(np.abs(nl - exact)) < 1e-9 * np.max(np.abs(exact))
 
 
+@pytest.mark.parametrize("substeps", [1, 8, 16])
+def test_zero_residual_is_exact_for_substeps_dividing_or_multiplying_the_drive_upsampling(substeps):
+    """The drive is a cubic on each of its 8 fine intervals per sample: 1 and 8 sub-steps sum them
+    through their exact maps, 16 evaluate each cubic at the sub-step starts."""
+    lin = _base_excited_sdof()
+    drive, _ = _drive()
+    assert drive.upsampling == 8
+    exact = simulate_linear(lin, drive)
+    nl = simulate_local_nonlinear(lin, drive, GATHER, [CubicStiffening(0.0)], substeps=substeps)
+    assert np.max(np.abs(nl - exact)) < 1e-9 * np.max(np.abs(exact))
+
+
 def test_duffing_against_direct_integration():
     lin = _base_excited_sdof()
     drive, t = _drive(noise_m=0.0)
@@ -106,3 +118,5 @@ def test_bad_element_definitions():
     drive, _ = _drive(seconds=0.1)
     with pytest.raises(InputError, match="gather vectors"):
         simulate_local_nonlinear(lin, drive, GATHER, [], substeps=2)
+    with pytest.raises(InputError, match="substeps 3; expected a divisor or a multiple of the drive's"):
+        simulate_local_nonlinear(lin, drive, GATHER, [CubicStiffening(0.0)], substeps=3)
