@@ -118,6 +118,10 @@ def body_displacement_map(model, body_name: str, nodes: np.ndarray) -> tuple[np.
     mbs = model.mbs
     nodes = np.asarray(nodes, dtype=int)
     rows = (3 * nodes[:, None] + np.arange(3)).ravel()
+    if hasattr(handle, "node_map"):  # constant-matrix linear CMS body (element='matrix')
+        idx = np.concatenate([np.asarray(mbs.systemData.GetNodeLTGODE2(n), dtype=int)
+                              for n in handle.coordinate_nodes])
+        return idx, handle.node_map(nodes)
     modal_idx = np.asarray(mbs.systemData.GetNodeLTGODE2(handle.modal_node), dtype=int)
     if model.formulation == "linear":
         from .model.linear_body import rigid_body_basis

@@ -516,7 +516,11 @@ def simulate_exudyn(model, drive_samples: np.ndarray, settings: IntegratorSettin
         if data.shape[0] < drive_samples.size:
             raise SimulationError(
                 f"sensor {name}: {data.shape[0]} samples stored, expected {drive_samples.size}")
-        out[i] = data[: drive_samples.size, 1:4] @ att.direction
+        coordinate_map = getattr(att, "coordinate_map", None)
+        if coordinate_map is None:
+            out[i] = data[: drive_samples.size, 1:4] @ att.direction
+        else:  # coordinate accelerations of a constant-matrix body
+            out[i] = data[: drive_samples.size, 1:] @ (att.direction @ coordinate_map)
     return out, _checked_stats(out, settings, mbs, wall, cpu, duration, n_steps)
 
 

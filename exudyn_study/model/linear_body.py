@@ -28,13 +28,24 @@ from __future__ import annotations
 
 import logging
 from collections.abc import Sequence
+from dataclasses import dataclass, field
 
 import numpy as np
 
 from ..flexbody import FFRFData, FlexibleBodyHandle, modal_damping_matrix, skew_columns
 from ..reduction import ReducedBody
 
-__all__ = ["rigid_body_basis", "add_linear_cms_body", "marker_node_subset", "patch_is_rigid"]
+__all__ = [
+    "rigid_body_basis",
+    "add_linear_cms_body",
+    "add_linear_matrix_body",
+    "MatrixBodyHandle",
+    "interface_rigid_map",
+    "interface_coordinate_transformation",
+    "node_modal_map",
+    "marker_node_subset",
+    "patch_is_rigid",
+]
 
 log = logging.getLogger(__name__)
 
@@ -252,3 +263,229 @@ def marker_node_subset(body: ReducedBody, nodes, centre, count: int = 6):
         if w.min() > 0.2 / k and np.linalg.norm(rel.T @ w) * scale < 1e-10:
             return nodes[order[:k]], w, np.zeros(3)
     return nodes, None, np.zeros(3)
+
+
+# ------------------------------------------------------------------------------- constant-matrix element
+def interface_rigid_map(body: ReducedBody, ffrf: FFRFData, interface: str, rtol: float = 1e-8) -> np.ndarray:
+    """Small rigid motion of an interface patch per unit modal coordinate, shape (6, 6 + n_modes).
+
+    Rows: translation of the patch's weighted centre (m), then small rotation (rad), per
+    unit coordinate of the linear CMS body (six rigid-body modes, then the flexible
+    modes). The patch must move rigidly in every mode (:func:`patch_is_rigid`); then
+    this is exactly the linearised kinematics of Exudyn's ``MarkerSuperElementRigid`` on
+    the patch.
+
+    Raises
+    ------
+    InputError
+        If the patch deforms in the mode basis.
+    """
+    from ..errors import InputError
+
+    i = body.interface_index(interface)
+    nodes = np.asarray(body.interface_nodes[i], dtype=int)
+    w = np.asarray(body.interface_weights[i], dtype=float)
+    centre = weighted_center(body, interface)
+    rows = (3 * nodes[:, None] + np.arange(3)).ravel()
+    u = np.hstack([rigid_body_basis(body, ffrf, nodes), np.asarray(body.mode_basis)[rows]])
+    x = np.asarray(body.node_positions_m)[nodes] - centre
+    g = np.zeros((3 * nodes.size, 6))
+    g[:, :3] = np.tile(np.eye(3), (nodes.size, 1))
+    g[:, 3:] = -skew_columns(x.ravel())  # theta x x = -skew(x) theta
+    sw = np.sqrt(np.repeat(w / w.sum(), 3))[:, None]
+    coef = np.linalg.lstsq(sw * g, sw * u, rcond=None)[0]
+    scale = np.linalg.norm(u)
+    if scale > 0.0 and np.linalg.norm(u - g @ coef) > rtol * scale:
+        raise InputError(
+            f"interface {interface!r} of body {body.name!r} deforms in the mode basis; element='matrix' "
+            "needs rigid interface patches (RBE2 reduction): use element='superelement'")
+    return coef
+
+
+def node_modal_map(body: ReducedBody, ffrf: FFRFData, nodes) -> np.ndarray:
+    """Displacements of mesh ``nodes`` per unit linear-CMS coordinate, shape (3 len(nodes), 6 + n_modes)."""
+    nodes = np.atleast_1d(np.asarray(nodes, dtype=int))
+    rows = (3 * nodes[:, None] + np.arange(3)).ravel()
+    return np.hstack([rigid_body_basis(body, ffrf, nodes), np.asarray(body.mode_basis)[rows]])
+
+
+@dataclass
+class MatrixBodyHandle(FlexibleBodyHandle):
+    """Handle of a linear CMS body added by :func:`add_linear_matrix_body`.
+
+    ``object_number`` is the ``ObjectGenericODE2`` (no mesh nodes: no super-element
+    markers or sensors on it); ``rigid_node`` and ``modal_node`` are -1 (no floating frame,
+    and the body's coordinates are not modal, see ``transformation``).
+
+    Attributes
+    ----------
+    interface_nodes : dict name -> NodeRigidBodyRxyz number
+    coordinate_nodes : list of int
+        Nodes of the body's coordinates, in the object's order (the interface nodes, then
+        the ``NodeGenericODE2`` of the remaining coordinates if any).
+    transformation : ndarray, shape (n_modal, n_modal)
+        ``P``: linear-CMS (modal) coordinates = ``P @`` body coordinates.
+    ffrf : FFRFData
+    """
+
+    interface_nodes: dict = field(default_factory=dict)
+    coordinate_nodes: list = field(default_factory=list)
+    transformation: np.ndarray | None = field(default=None, repr=False)
+    ffrf: FFRFData | None = field(default=None, repr=False)
+
+    def node_map(self, nodes) -> np.ndarray:
+        """Displacements of mesh ``nodes`` per unit body coordinate, shape (3 len(nodes), n_coordinates)."""
+        return node_modal_map(self.body, self.ffrf, nodes) @ self.transformation
+
+    def node_marker(self, mbs, node_index: int) -> int:
+        """Add (once) and return a ``MarkerNodePosition`` that moves with mesh node ``node_index``.
+
+        A ``NodePoint`` without mass at the node, its displacement tied to the body's
+        coordinates by a constant linear constraint (``ObjectConnectorCoordinateVector``
+        on a ``MarkerObjectODE2Coordinates`` of the body).
+        """
+        import exudyn.itemInterface as eii
+
+        cache = self.__dict__.setdefault("_node_markers", {})
+        if node_index not in cache:
+            x = np.asarray(self.body.node_positions_m)[int(node_index)] + np.asarray(self.position_m)
+            node = mbs.AddNode(eii.NodePoint(name=f"{self.body.name}:node{int(node_index)}",
+                                             referenceCoordinates=[float(v) for v in x],
+                                             visualization=eii.VNodePoint(show=False)))
+            m_node = mbs.AddMarker(eii.MarkerNodeCoordinates(nodeNumber=node))
+            m_body = mbs.AddMarker(eii.MarkerObjectODE2Coordinates(objectNumber=self.object_number))
+            scaling = self.node_map([node_index])
+            # C = S (r_body + q_body) - (x + q_node) - offset = 0 (both markers give reference + displacement)
+            offset = scaling @ self._reference_coordinates() - x
+            mbs.AddObject(eii.ObjectConnectorCoordinateVector(
+                name=f"{self.body.name}:node{int(node_index)}:tie", markerNumbers=[m_node, m_body],
+                scalingMarker0=np.eye(3), scalingMarker1=scaling, offset=[float(v) for v in offset]))
+            cache[node_index] = mbs.AddMarker(eii.MarkerNodePosition(nodeNumber=node))
+        return cache[node_index]
+
+    def _reference_coordinates(self) -> np.ndarray:
+        """Return the reference coordinates of the body's nodes in the object's order."""
+        ref = [np.r_[self.interface_positions_m[itf], np.zeros(3)] for itf in self.interface_nodes]
+        n_rest = self.transformation.shape[1] - 6 * len(self.interface_nodes)
+        return np.concatenate(ref + [np.zeros(n_rest)])
+
+
+def interface_coordinate_transformation(body: ReducedBody, ffrf: FFRFData) -> np.ndarray:
+    """``P`` with linear-CMS coordinates ``q = P [y; z]``: ``y`` the interfaces' small rigid motions.
+
+    ``y`` stacks :func:`interface_rigid_map` ``T_k q`` of every interface (6 each, in
+    ``body.interface_names`` order); ``z = N^T q`` with ``N`` an orthonormal basis of the
+    null space of ``T``. So ``P = [T^+, N]`` (``T^+`` the right pseudo-inverse),
+    ``P^-1 = [T; N^T]``. The interface motions must be independent (``T`` of full row rank).
+
+    Raises
+    ------
+    InputError
+        If an interface patch deforms in the mode basis, or the interface motions are not
+        independent in it.
+    """
+    from ..errors import InputError
+
+    t = np.vstack([interface_rigid_map(body, ffrf, itf) for itf in body.interface_names])
+    u, sv, vt = np.linalg.svd(t)
+    if sv.size < t.shape[0] or sv[-1] < 1e-9 * sv[0]:
+        raise InputError(
+            f"body {body.name!r}: its {len(body.interface_names)} interfaces' motions are not independent in "
+            f"the {t.shape[1]} linear-CMS coordinates; element='matrix' needs them independent: use "
+            "element='superelement'")
+    t_plus = vt[: t.shape[0]].T @ (u / sv).T  # V S^-1 U^T
+    null = vt[t.shape[0]:].T
+    return np.hstack([t_plus, null])
+
+
+def add_linear_matrix_body(
+    mbs,
+    body: ReducedBody,
+    ffrf: FFRFData,
+    damping_ratios: Sequence[float] | np.ndarray,
+    name: str | None = None,
+) -> MatrixBodyHandle:
+    """Add ``body`` as a linear CMS body with constant matrices (``ObjectGenericODE2``).
+
+    The same linear CMS body as :func:`add_linear_cms_body` (six rigid-body modes and the
+    flexible modes: mass I, stiffness ``diag(0, w_i^2)``, damping ``diag(0, 2 zeta_i
+    w_i)``) in coordinates whose first entries are the interfaces' motions
+    (:func:`interface_coordinate_transformation`, ``q = P [y; z]``; mass ``P^T P``,
+    stiffness ``P^T K P``, damping ``P^T D P``): each interface patch (rigid in every
+    mode) is a ``NodeRigidBodyRxyz`` at its weighted centre whose six coordinates are
+    the centre's displacement and, to first order, the patch's small rotation, and the
+    joints attach to its ``MarkerNodeRigid``; the remaining coordinates ``z`` sit on a
+    ``NodeGenericODE2``. Exudyn does no per-iteration work for the body beyond three
+    dense matrix-vector products and no constraints are needed to attach it, where
+    ``ObjectFFRFreducedOrder`` rebuilds its mass matrix, FFRF terms and mesh-node
+    coordinates in every residual evaluation. The linearised system is that of the
+    super-element body (a change of coordinates).
+
+    Parameters
+    ----------
+    mbs : exudyn.MainSystem
+    body : ReducedBody
+    ffrf : FFRFData
+        Mass, centre of mass and inertia (for the rigid-body modes).
+    damping_ratios : array_like, shape (body.n_modes,)
+        Damping ratio per flexible mode; the rigid-body modes are undamped.
+    name : str, optional
+
+    Returns
+    -------
+    MatrixBodyHandle
+        ``interface_markers`` are ``MarkerNodeRigid`` on the interface nodes.
+
+    Raises
+    ------
+    InputError
+        If an interface patch deforms in the mode basis or the interfaces' motions are
+        not independent.
+    """
+    import exudyn as exu
+    import exudyn.itemInterface as eii
+
+    name = name or body.name
+    damping = modal_damping_matrix(body.frequencies_hz, damping_ratios)
+    p = interface_coordinate_transformation(body, ffrf)
+    stiffness = np.concatenate([np.zeros(6), body.modal_stiffness()])
+    damp = np.concatenate([np.zeros(6), np.diag(damping)])
+
+    def container(mat: np.ndarray, dense: bool = True):
+        mc = exu.MatrixContainer()
+        mc.SetWithDenseMatrix(0.5 * (mat + mat.T), useDenseMatrix=dense)
+        return mc
+
+    # mass P^T P = blockdiag((T T^T)^-1, I) exactly (N orthonormal, N^T T^+ = 0): stored sparse
+    n_itf = 6 * len(body.interface_names)
+    mass = p.T @ p
+    mass[:n_itf, n_itf:] = 0.0
+    mass[n_itf:, :n_itf] = 0.0
+    mass[n_itf:, n_itf:] = np.eye(p.shape[1] - n_itf)
+
+    nodes, markers, positions = {}, {}, {}
+    for itf in body.interface_names:
+        centre = weighted_center(body, itf)
+        nodes[itf] = mbs.AddNode(eii.NodeRigidBodyRxyz(
+            name=f"{name}:{itf}", referenceCoordinates=[float(v) for v in centre] + [0.0, 0.0, 0.0],
+            visualization=eii.VNodeRigidBodyRxyz(show=False)))
+        markers[itf] = mbs.AddMarker(eii.MarkerNodeRigid(nodeNumber=nodes[itf]))
+        positions[itf] = centre
+    coordinate_nodes = list(nodes.values())
+    n_rest = p.shape[1] - 6 * len(nodes)
+    if n_rest:
+        coordinate_nodes.append(mbs.AddNode(eii.NodeGenericODE2(
+            name=f"NodeGeneric:{name}", numberOfODE2Coordinates=n_rest, referenceCoordinates=[0.0] * n_rest,
+            initialCoordinates=[0.0] * n_rest, initialCoordinates_t=[0.0] * n_rest)))
+    obj = mbs.AddObject(eii.ObjectGenericODE2(
+        name=name, nodeNumbers=coordinate_nodes, massMatrix=container(mass, dense=False),
+        stiffnessMatrix=container(p.T @ (stiffness[:, None] * p)),
+        dampingMatrix=container(p.T @ (damp[:, None] * p)),
+        visualization=eii.VObjectGenericODE2(show=False)))
+    log.info("added linear CMS body %s as constant matrices: 6 rigid + %d flexible modes, %d interface nodes",
+             name, body.n_modes, len(nodes))
+    return MatrixBodyHandle(
+        body=body, object_number=obj, rigid_node=-1, modal_node=-1, interface_markers=markers,
+        interface_positions_m=positions, damping_ratios=np.asarray(damping_ratios, dtype=float),
+        position_m=np.zeros(3), interface_nodes=nodes, coordinate_nodes=coordinate_nodes, transformation=p,
+        ffrf=ffrf)

@@ -366,18 +366,27 @@ def position_marker(mbs, marker: int) -> int:
         weightingFactors=[float(w) for w in data["weightingFactors"]]))
 
 
-def _rigid_body(mbs, name: str, position, mass: float, side_lengths, color) -> tuple[int, int]:
-    """A cuboid-inertia rigid body of ``mass`` centred at ``position``; returns (object, node)."""
+def _rigid_body(mbs, name: str, position, mass: float, side_lengths, color,
+                lie_group_node: bool = False) -> tuple[int, int]:
+    """Add a cuboid-inertia rigid body of ``mass`` centred at ``position``; return (object, node).
+
+    ``lie_group_node``: a ``NodeRigidBodyRotVecLG`` (rotation vector, Lie-group update)
+    instead of Euler parameters; with the centre of mass at the node its mass matrix is
+    constant.
+    """
+    import exudyn as exu
     import exudyn.utilities as eu
 
     sides = np.asarray(side_lengths, dtype=float)
     density = mass / float(np.prod(sides))
+    kwargs = {"nodeType": exu.NodeType.RotationRotationVector} if lie_group_node else {}
     obj = mbs.CreateRigidBody(
         name=name,
         referencePosition=[float(v) for v in position],
         inertia=eu.InertiaCuboid(density, sides.tolist()),
         gravity=[0.0, 0.0, 0.0],
         color=list(color),
+        **kwargs,
     )
     return int(obj), int(mbs.GetObject(obj)["nodeNumber"])
 
@@ -390,7 +399,7 @@ def _body_marker(mbs, body: int, body_position, global_point) -> int:
 
 
 def add_rig(mbs, frame_markers: dict, frame_positions: dict, foundation, params: RigParameters = RigParameters(),
-            ground: int | None = None) -> RigHandles:
+            ground: int | None = None, lie_group_nodes: bool = False) -> RigHandles:
     """Add the rig's rigid parts and joints, connecting them to the frame and the foundation.
 
     Parameters
@@ -407,6 +416,12 @@ def add_rig(mbs, frame_markers: dict, frame_positions: dict, foundation, params:
     params : RigParameters
     ground : int, optional
         An existing ground object (created if None).
+    lie_group_nodes : bool
+        Rigid parts on ``NodeRigidBodyRotVecLG`` nodes (constant mass matrices) instead of
+        Euler parameters. With constant-matrix flexible bodies
+        (:func:`~exudyn_study.model.linear_body.add_linear_matrix_body`) every mass matrix of
+        the model is then constant and Exudyn computes the system mass matrix once instead of
+        in every residual evaluation. Same linearised system.
 
     Returns
     -------
@@ -421,6 +436,7 @@ def add_rig(mbs, frame_markers: dict, frame_positions: dict, foundation, params:
     h = RigHandles()
     h.ground = mbs.AddObject(eii.ObjectGround(name="ground")) if ground is None else ground
     p = params
+    lg = bool(lie_group_nodes)
     left = np.asarray(frame_positions["front_left_drive"], dtype=float)
     right = np.asarray(frame_positions["front_right_drive"], dtype=float)
     x_d = 0.5 * (left[0] + right[0])
@@ -433,7 +449,7 @@ def add_rig(mbs, frame_markers: dict, frame_positions: dict, foundation, params:
     # cylinder: revolute about y at its base
     c_pos = 0.5 * (base + cyl_top)
     h.bodies["cylinder"], h.nodes["cylinder"] = _rigid_body(
-        mbs, "cylinder", c_pos, p.cylinder_mass_kg, (0.12, 0.12, p.cylinder_length_m), (0.4, 0.4, 0.4, 1))
+        mbs, "cylinder", c_pos, p.cylinder_mass_kg, (0.12, 0.12, p.cylinder_length_m), (0.4, 0.4, 0.4, 1), lg)
     h.joints["cylinder_ground"] = generic_joint(
         mbs, ground_marker(mbs, h.ground, base), _body_marker(mbs, h.bodies["cylinder"], c_pos, base),
         (1, 1, 1, 1, 0, 1), "cylinder_ground")
@@ -441,7 +457,7 @@ def add_rig(mbs, frame_markers: dict, frame_positions: dict, foundation, params:
     rod = pin[2] - cyl_top[2]
     p_pos = 0.5 * (cyl_top + pin)
     h.bodies["piston"], h.nodes["piston"] = _rigid_body(
-        mbs, "piston", p_pos, p.piston_mass_kg, (0.08, 0.08, rod), (0.5, 0.5, 0.1, 1))
+        mbs, "piston", p_pos, p.piston_mass_kg, (0.08, 0.08, rod), (0.5, 0.5, 0.1, 1), lg)
     drive = h.drive
     h.joints["drive"] = generic_joint(
         mbs, _body_marker(mbs, h.bodies["cylinder"], c_pos, cyl_top),
@@ -452,7 +468,7 @@ def add_rig(mbs, frame_markers: dict, frame_positions: dict, foundation, params:
     y_span = abs(right[1] - left[1])
     l_pos = 0.5 * (pivot + pin)
     h.bodies["linkage"], h.nodes["linkage"] = _rigid_body(
-        mbs, "linkage", l_pos, p.linkage_mass_kg, (abs(x_d - pivot[0]), y_span, 0.10), (0.2, 0.6, 0.2, 1))
+        mbs, "linkage", l_pos, p.linkage_mass_kg, (abs(x_d - pivot[0]), y_span, 0.10), (0.2, 0.6, 0.2, 1), lg)
     h.joints["linkage_ground"] = generic_joint(
         mbs, ground_marker(mbs, h.ground, pivot), _body_marker(mbs, h.bodies["linkage"], l_pos, pivot),
         (1, 1, 1, 1, 0, 1), "linkage_ground")
@@ -465,7 +481,7 @@ def add_rig(mbs, frame_markers: dict, frame_positions: dict, foundation, params:
         s_pos = 0.5 * (foot + top)
         name = f"strut_{side}"
         h.bodies[name], h.nodes[name] = _rigid_body(
-            mbs, name, s_pos, p.strut_mass_kg, (0.05, 0.05, float(top[2] - foot[2])), (0.1, 0.7, 0.8, 1))
+            mbs, name, s_pos, p.strut_mass_kg, (0.05, 0.05, float(top[2] - foot[2])), (0.1, 0.7, 0.8, 1), lg)
         h.joints[f"{name}_linkage"] = generic_joint(
             mbs, _body_marker(mbs, h.bodies["linkage"], l_pos, foot), _body_marker(mbs, h.bodies[name], s_pos, foot),
             (1, 1, 1, 0, 0, 1), f"{name}_linkage")
@@ -479,7 +495,8 @@ def add_rig(mbs, frame_markers: dict, frame_positions: dict, foundation, params:
     g = fs - [0.0, p.front_strut_length_m, 0.0]
     f_pos = 0.5 * (g + fs)
     h.bodies["front_strut"], h.nodes["front_strut"] = _rigid_body(
-        mbs, "front_strut", f_pos, p.front_strut_mass_kg, (0.04, p.front_strut_length_m, 0.04), (0.1, 0.2, 0.9, 1))
+        mbs, "front_strut", f_pos, p.front_strut_mass_kg, (0.04, p.front_strut_length_m, 0.04), (0.1, 0.2, 0.9, 1),
+        lg)
     h.joints["front_strut_ground"] = generic_joint(
         mbs, ground_marker(mbs, h.ground, g), _body_marker(mbs, h.bodies["front_strut"], f_pos, g),
         (1, 1, 1, 0, 1, 0), "front_strut_ground")  # universal joint: twist about y locked

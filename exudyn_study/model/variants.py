@@ -23,6 +23,21 @@ Body formulation
 basis), the linearisation of the FFRF body for small motions and several times faster to
 integrate; ``'ffrf'`` uses the full floating-frame body of
 :func:`exudyn_study.flexbody.add_flexible_body`. Both have the same linearised system.
+
+The linear formulation has two Exudyn elements (``element``):
+
+- ``'superelement'`` (default): an ``ObjectFFRFreducedOrder`` with its frame fixed
+  (:func:`~exudyn_study.model.linear_body.add_linear_cms_body`); markers and sensors on
+  any mesh node (``MarkerSuperElement*``, ``SensorSuperElement``), as the physics
+  entries that attach to node sets or change the body's reduced damping need;
+- ``'matrix'``: an ``ObjectGenericODE2`` with the constant mass, stiffness and damping
+  matrices (:func:`~exudyn_study.model.linear_body.add_linear_matrix_body`), interface
+  nodes tied to the modal coordinates by constant constraints, and the sensors read
+  from the modal accelerations. Same linearised system, and the Exudyn time integration
+  of Model 1 several times faster (``benchmarks/bench_simulation.py``): the
+  super-element rebuilds its mass matrix, FFRF terms and mesh-node coordinates in every
+  residual evaluation. Markers at mesh nodes are available through
+  ``handle.node_marker`` (a point node tied to the modes), not as super-element markers.
 """
 
 from __future__ import annotations
@@ -43,6 +58,7 @@ from .rig import Drive, RigHandles, RigParameters, add_rig, generic_joint
 __all__ = [
     "VARIANTS",
     "FORMULATIONS",
+    "ELEMENTS",
     "BushingParameters",
     "SensorAttachment",
     "InterfaceHandle",
@@ -56,6 +72,8 @@ log = logging.getLogger(__name__)
 
 VARIANTS = (1, 2, 3)
 FORMULATIONS = ("linear", "ffrf")
+#: Exudyn elements of the linear formulation (see the module docstring)
+ELEMENTS = ("superelement", "matrix")
 MODEL3_COMPONENTS = ("frame", "tank_left", "tank_right", "bracket_left", "bracket_right")
 #: Damping of the rear foundation when the damping choice names no ratio for it.
 FOUNDATION_DAMPING_RATIO = 0.02
@@ -129,7 +147,11 @@ class SensorAttachment:
     direction : ndarray, shape (3,)
         Unit measuring direction (global).
     exudyn_sensor : int or None
-        ``SensorSuperElement`` (acceleration, 3 components) of that node.
+        ``SensorSuperElement`` (acceleration, 3 components) of that node; with
+        ``coordinate_map``: the ``SensorBody`` of the body's coordinate accelerations.
+    coordinate_map : ndarray, shape (3, n_coordinates), or None
+        Acceleration of the node per unit coordinate acceleration of the body
+        (``element='matrix'``: the node's acceleration is ``coordinate_map @ q_tt``).
     """
 
     sensor: Sensor
@@ -138,6 +160,7 @@ class SensorAttachment:
     distance_m: float
     direction: np.ndarray
     exudyn_sensor: int | None = None
+    coordinate_map: np.ndarray | None = field(default=None, repr=False)
 
     @property
     def component_index(self) -> int:
@@ -293,6 +316,7 @@ def build_model(
     progress: Callable | None = None,
     marker_nodes: int | None = 6,
     exudyn_mesh: str = "all",
+    element: str = "superelement",
 ) -> Model:
     """Build a thesis model variant on the rig.
 
@@ -316,9 +340,9 @@ def build_model(
         Sensor names to attach (default: all 42 of Appendix A).
     progress : callable, optional
         Called with a short text before each expensive step.
-    marker_nodes, exudyn_mesh
+    marker_nodes, exudyn_mesh, element
         See :func:`build_model_from_bodies` (``exudyn_mesh='used'``: much faster Exudyn
-        time integration, same linearised system).
+        time integration, same linearised system; ``element='matrix'``: faster still).
 
     Returns
     -------
@@ -336,7 +360,7 @@ def build_model(
     data = model_bodies(variant, mesh_size, cache_dir, progress)
     model = build_model_from_bodies(
         data, variant=variant, damping=damping, bushing=bushing, formulation=formulation, rig=rig,
-        sensors=sensors, marker_nodes=marker_nodes, exudyn_mesh=exudyn_mesh)
+        sensors=sensors, marker_nodes=marker_nodes, exudyn_mesh=exudyn_mesh, element=element)
     model.metadata["mesh"] = str(mesh_size)
     return model
 
@@ -351,6 +375,7 @@ def build_model_from_bodies(
     sensors: Sequence[str] | None = None,
     marker_nodes: int | None = 6,
     exudyn_mesh: str = "all",
+    element: str = "superelement",
 ) -> Model:
     """Assemble a rig model from given flexible bodies (the workhorse of :func:`build_model`).
 
@@ -374,6 +399,10 @@ def build_model_from_bodies(
         several times faster (``benchmarks/bench_simulation.py``); the mesh indices then
         differ in Exudyn (``model.bodies[b].mesh_node_map``: mesh index -> Exudyn node)
         and there is no surface mesh for the renderer. Same linearised system.
+    element : {'superelement', 'matrix'}
+        Exudyn element of the linear formulation (see the module docstring); with
+        'matrix', ``marker_nodes`` and ``exudyn_mesh`` do not apply (no mesh nodes in
+        Exudyn).
 
     Returns
     -------
@@ -383,7 +412,7 @@ def build_model_from_bodies(
     import exudyn.itemInterface as eii
 
     from ..flexbody import add_flexible_body
-    from .linear_body import add_linear_cms_body, weighted_center
+    from .linear_body import add_linear_cms_body, add_linear_matrix_body, weighted_center
 
     _check_variant(variant)
     if formulation not in FORMULATIONS:
@@ -399,6 +428,11 @@ def build_model_from_bodies(
         raise InputError(f"exudyn_mesh {exudyn_mesh!r}; expected 'all' or 'used'")
     if exudyn_mesh == "used" and formulation != "linear":
         raise InputError("exudyn_mesh='used' needs formulation='linear'")
+    if element not in ELEMENTS:
+        raise InputError(f"element {element!r}; expected one of {list(ELEMENTS)}")
+    if element == "matrix" and formulation != "linear":
+        raise InputError(f"element='matrix' with formulation {formulation!r}; it is an element of "
+                         "formulation='linear'")
     components = {n: (None if n == "chassis" else n) for n in bodies}
     chosen = _sensor_nodes(bodies, components, sensor_list)
     sc = exu.SystemContainer()
@@ -412,7 +446,9 @@ def build_model_from_bodies(
         zeta = np.asarray(_damping_for(damping, name, comp)(fb.body.frequencies_hz), dtype=float)
         ratios[name] = zeta
         color = colors.get(name, (0.9, 0.5, 0.2, 1))
-        if formulation == "linear":
+        if element == "matrix":
+            handles[name] = add_linear_matrix_body(mbs, fb.body, fb.ffrf, zeta, name=name)
+        elif formulation == "linear":
             keep = [c[2] for c in chosen if c[1] == name] if exudyn_mesh == "used" else None
             handles[name] = add_linear_cms_body(mbs, fb.body, fb.ffrf, zeta, ground, name=name, color=color,
                                                 marker_nodes=marker_nodes, mesh_nodes=keep)
@@ -426,7 +462,7 @@ def build_model_from_bodies(
     }
     frame = handles[frame_name]
     rig_handles = add_rig(mbs, frame.interface_markers, frame.interface_positions_m, handles["rear_foundation"],
-                          rig, ground=ground)
+                          rig, ground=ground, lie_group_nodes=element == "matrix")
     joints = dict(rig_handles.joints)
 
     if frame_name == "frame":  # Model 3: join the components to the frame
@@ -449,6 +485,7 @@ def build_model_from_bodies(
         "variant": variant,
         "damping": _damping_label(damping),
         "formulation": formulation,
+        "element": element if formulation == "linear" else "ffrf",
         "connection": ("bushing" if bushing is not None else "fixed") if variant == 3 else "single body",
     }
     return Model(
@@ -488,13 +525,33 @@ def _sensor_nodes(bodies: Mapping, components: dict, sensor_list) -> list:
 
 
 def _attach_sensors(mbs, handles: dict, chosen: list) -> dict:
-    """Add one acceleration ``SensorSuperElement`` per sensor node (shared by sensors on one node)."""
+    """Add one acceleration ``SensorSuperElement`` per sensor node (shared by sensors on one node).
+
+    On a constant-matrix body (``MatrixBodyHandle``) one ``SensorBody`` stores the body's
+    coordinate accelerations and each attachment has the node's ``coordinate_map``.
+    """
     import exudyn as exu
     import exudyn.itemInterface as eii
+
+    from .linear_body import MatrixBodyHandle
 
     out = {}
     node_sensor: dict[tuple[str, int], int] = {}
     for s, body_name, node, dist in chosen:
+        if dist > 0.05:
+            log.warning("sensor %s: nearest surface node of %s is %.0f mm away", s.name, s.component,
+                        1e3 * dist)
+        handle = handles[body_name]
+        if isinstance(handle, MatrixBodyHandle):
+            key = (body_name, None)
+            if key not in node_sensor:
+                node_sensor[key] = mbs.AddSensor(eii.SensorBody(
+                    name=f"acc:{body_name}", bodyNumber=handle.object_number,
+                    outputVariableType=exu.OutputVariableType.Coordinates_tt, storeInternal=True,
+                    writeToFile=False))
+            out[s.name] = SensorAttachment(s, body_name, node, dist, _DIRECTION[s.direction].copy(),
+                                           node_sensor[key], handle.node_map([node]))
+            continue
         key = (body_name, node)
         if key not in node_sensor:
             local = handles[body_name].__dict__.get("mesh_node_map", {}).get(node, node)
@@ -502,6 +559,4 @@ def _attach_sensors(mbs, handles: dict, chosen: list) -> dict:
                 name=f"acc:{s.name}", bodyNumber=handles[body_name].object_number, meshNodeNumber=int(local),
                 outputVariableType=exu.OutputVariableType.Acceleration, storeInternal=True, writeToFile=False))
         out[s.name] = SensorAttachment(s, body_name, node, dist, _DIRECTION[s.direction].copy(), node_sensor[key])
-        if dist > 0.05:
-            log.warning("sensor %s: nearest surface node of %s is %.0f mm away", s.name, s.component, 1e3 * dist)
     return out
