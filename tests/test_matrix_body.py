@@ -80,6 +80,24 @@ def test_matrix_element_time_integration_agrees_with_the_exact_linear_solution()
         assert np.all(np.std(y[~strong], axis=1) < 2.0 * np.std(ref[~strong], axis=1))
 
 
+def test_drive_offsets_per_step_give_the_python_offset_results(monkeypatch):
+    """The drive prescribed once per step (symbolic offset) equals the Python offset function's run."""
+    from exudyn_study import simulate as sim
+    from exudyn_study.model import build_model_from_bodies
+
+    model = build_model_from_bodies(mini_bodies(), 1, damping="constant-2", sensors=FRAME_SENSORS,
+                                    element="matrix")
+    x = sim.prepare_drive("white-noise", 1.0, seed=2)[:201]
+    y_fast, _ = sim.simulate_exudyn(model, x)
+    joint = model.mbs.GetObjectParameter(model.drive.joint, "offsetUserFunction")
+    assert joint["type"] == "Python"  # restored after the run
+    assert model.mbs.GetPreStepUserFunction() == 0
+    monkeypatch.setattr(sim, "_drive_offsets_per_step", lambda *args: (lambda: None))
+    y_python, _ = sim.simulate_exudyn(model, x)
+    # the index-3 drive constraint turns the drive's rounding (~1e-16 m) into ~1e-7 m/s^2
+    np.testing.assert_allclose(y_fast, y_python, rtol=0, atol=1e-5 * np.abs(y_python).max())
+
+
 def test_node_marker_of_the_matrix_element_moves_with_the_mesh_node():
     """A point mass on a sensor node: the same linearised system with either element."""
     import exudyn.itemInterface as eii
