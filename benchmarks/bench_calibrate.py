@@ -1,6 +1,6 @@
 """Benchmark: automatic damping calibration (issue 5).
 
-One command: ``python benchmarks/bench_calibrate.py [--skip-models] [--cutoff-hz 500] [--mesh coarse]``.
+One command: ``python benchmarks/bench_calibrate.py [--skip-models] [--cutoff-hz 500] [--mesh production]``.
 
 1. **Two-beam test system** (the one of ``tests/test_calibrate.py``): wall time of the one
    linearisation, of one eigen-solve with derivatives, and of a calibration (evaluations,
@@ -214,7 +214,7 @@ def main() -> None:
     parser = argparse.ArgumentParser(description=__doc__.splitlines()[0])
     parser.add_argument("--skip-models", action="store_true", help="only the two-beam test system")
     parser.add_argument("--cutoff-hz", type=float, default=500.0, help="Models 1/2 design cut-off (Hz)")
-    parser.add_argument("--mesh", default="coarse", help="rig model mesh size")
+    parser.add_argument("--mesh", default="production", help="rig model mesh size")
     args = parser.parse_args()
     bench_test_system()
     if not args.skip_models:

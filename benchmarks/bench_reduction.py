@@ -3,8 +3,9 @@
 One command: ``python benchmarks/bench_reduction.py [--meshes coarse production]
 [--joints simple detailed] [--exudyn-hcb]``. Prints, per mesh size and joint model, the DOF
 count and the wall time of each step with a fresh cache, then the time of a cache hit. A mesh
-size whose ``maxh`` equals one already timed is reported as that one, not rebuilt (today
-``MESH_SIZES`` has 0.12 m for both; see :data:`exudyn_study.fe.chassis.MESH_SIZES`).
+size whose mesh parameters equal one already timed is reported as that one, not rebuilt (see
+:data:`exudyn_study.fe.chassis.MESH_SIZES`: coarse 0.2 m with less local refinement, production
+0.12 m).
 ``--exudyn-hcb`` also times Exudyn's out-of-the-box
 ``FEMinterface.ComputeHurtyCraigBamptonModes`` (RBE2, scipy) on the same model with the
 same number of fixed-interface modes, as a ratio in the same run.
@@ -35,19 +36,20 @@ def main() -> None:
     parser.add_argument("--exudyn-hcb", action="store_true", help="also time Exudyn's own HCB")
     args = parser.parse_args()
     rows = []
-    timed: dict[tuple[str, float], str] = {}
+    timed: dict[tuple[str, str], str] = {}
     print(f"load average at start: {os.getloadavg()[0]:.2f} (1 min), {os.getloadavg()[1]:.2f} (5 min)")
     for joints in args.joints:
         for mesh in args.meshes:
             spec = BodySpec(joint_model=joints, mesh_size=mesh)
-            same = timed.get((joints, spec.maxh_m()))
+            key = (joints, repr(sorted(spec.mesh_parameters().items())))
+            same = timed.get(key)
             if same is not None:
-                print(f"\n{spec.name} / {mesh}: maxh {spec.maxh_m()} m, the same mesh as '{same}' "
+                print(f"\n{spec.name} / {mesh}: {spec.mesh_parameters()}, the same mesh as '{same}' "
                       "(not rebuilt)")
                 earlier = next(r[2:] for r in rows if r[:2] == (joints, same))
                 rows.append((joints, f"{mesh} (= {same})", *earlier))
                 continue
-            timed[(joints, spec.maxh_m())] = mesh
+            timed[key] = mesh
             with tempfile.TemporaryDirectory() as cache_dir:
                 t0 = time.perf_counter()
                 data = flexible_body(spec, cache_dir=cache_dir)

@@ -52,7 +52,7 @@ def parse_args(argv=None) -> argparse.Namespace:
                    help="control rms error to stop at (default 0.05)")
     p.add_argument("--beta", type=float, default=5.0, help="Basquin exponent (default 5)")
     p.add_argument("--rate-hz", type=float, default=204.8, help="damage counting rate (default 204.8 Hz)")
-    p.add_argument("--mesh-size", default="coarse", help="'coarse' (default), 'production' or a size in m")
+    p.add_argument("--mesh-size", default="production", help="'production' (default), 'coarse' or a size in m")
     p.add_argument("--cache-dir", default=None, help="flexible-body cache directory")
     p.add_argument("--no-plots", action="store_true", help="CSV only")
     return p.parse_args(argv)

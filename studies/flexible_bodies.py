@@ -11,7 +11,7 @@ writes:
 - the first ten mounted frequencies (rig interfaces clamped) of Model 1 vs Model 2;
 - timings.
 
-Usage: python studies/flexible_bodies.py [--mesh coarse|production|MAXH] [--out DIR]
+Usage: python studies/flexible_bodies.py [--mesh production|coarse|MAXH] [--out DIR]
 """
 
 from __future__ import annotations
@@ -31,7 +31,7 @@ from exudyn_study.reduction import patched_full_model_frequencies
 
 def main(argv=None) -> int:
     parser = argparse.ArgumentParser(description=__doc__.splitlines()[0])
-    parser.add_argument("--mesh", default="coarse", help="coarse, production or a max element size in m")
+    parser.add_argument("--mesh", default="production", help="production (default), coarse or a max element size in m")
     parser.add_argument("--out", default="out/flexible_bodies", help="output directory")
     args = parser.parse_args(argv)
     mesh = args.mesh if args.mesh in ("coarse", "production") else float(args.mesh)

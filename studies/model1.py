@@ -4,7 +4,7 @@ The analogue of the thesis's Table 2: the first ten system modes (undamped and d
 frequency, damping ratio, which component moves most), printed and saved as markdown
 and CSV, and a plot of the mode shapes at the 42 sensors (PNG).
 
-``python studies/model1.py [--mesh coarse] [--damping adams-default] [--out results/studies]``
+``python studies/model1.py [--mesh production] [--damping adams-default] [--out results/studies]``
 
 Models 2 and 3 (``model2.py``, ``model3.py``) reuse :func:`run`. Building a chassis body
 from scratch takes minutes; it is cached (``~/.cache/exudyn_study``).
@@ -85,7 +85,7 @@ def plot_shapes(modes, path: Path, title: str) -> None:
 def run(variant: int, argv=None, title: str | None = None) -> tuple:
     """Command-line entry shared by the three model studies."""
     p = argparse.ArgumentParser(description=__doc__.splitlines()[0])
-    p.add_argument("--mesh", default="coarse")
+    p.add_argument("--mesh", default="production")
     p.add_argument("--damping", default="adams-default")
     p.add_argument("--out", default="results/studies")
     args = p.parse_args(argv)

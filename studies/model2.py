@@ -1,7 +1,7 @@
 """Study: Model 2 on the rig (one flexible chassis body, detailed bolted joints).
 
 The analogue of the thesis's Table 3 (first ten system modes) and the mode shapes at the
-sensors. ``python studies/model2.py [--mesh coarse] [--damping adams-default] [--out DIR]``
+sensors. ``python studies/model2.py [--mesh production] [--damping adams-default] [--out DIR]``
 """
 
 from __future__ import annotations

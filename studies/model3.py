@@ -7,7 +7,7 @@ comparison with Model 1: modes paired by MAC at the 42 sensors, frequency of Mod
 Model 3 fixed and Model 3 bushing. The thesis observed Model 3's component-dominated
 modes higher than Model 1's with fixed joints; a compliant bushing should move them down.
 
-``python studies/model3.py [--mesh coarse] [--damping adams-default] [--out DIR]``
+``python studies/model3.py [--mesh production] [--damping adams-default] [--out DIR]``
 """
 
 from __future__ import annotations

@@ -19,9 +19,9 @@ ngs = pytest.importorskip("ngsolve")
 from exudyn_study.errors import InputError  # noqa: E402
 from exudyn_study.fe.chassis import (  # noqa: E402
     COMPONENTS,
-    MESH_SIZES,
     ChassisDesign,
     chassis_geometry,
+    mesh_parameters,
     rear_foundation_geometry,
 )
 from exudyn_study.materials import MATERIALS  # noqa: E402
@@ -188,13 +188,13 @@ def test_committed_meshes_are_current():
             k: tuple(v) if isinstance(v, list) else v for k, v in entry["design"].items()})
         current = dataclasses.replace(ChassisDesign(), joint_model=design.joint_model)
         assert design == current, f"{name} was built from another design; rebuild the meshes"
-        assert entry["maxh_m"] == MESH_SIZES["coarse"], name
+        assert entry["mesh"] == mesh_parameters("coarse"), f"{name} was meshed with other settings; rebuild"
 
 
 @pytest.mark.slow
 @pytest.mark.parametrize("joint_model", ["simple", "detailed"])
 def test_assembly_meshes_from_scratch(joint_model):
     geo = chassis_geometry(ChassisDesign(joint_model=joint_model))
-    mesh = ngs.Mesh(geo.generate_mesh(MESH_SIZES["coarse"]))
+    mesh = ngs.Mesh(geo.generate_mesh(**mesh_parameters("coarse")))
     assert set(mesh.GetMaterials()) == {p.region for p in geo.parts}
     assert _mesh_mass(geo, mesh) == pytest.approx(geo.expected_mass_kg(), rel=MASS_RTOL)
