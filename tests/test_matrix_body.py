@@ -66,7 +66,8 @@ def test_matrix_element_time_integration_agrees_with_the_exact_linear_solution()
     def run(method, settings=None):
         model = build_model_from_bodies(mini_bodies(), 1, damping="constant-2", sensors=FRAME_SENSORS,
                                         element="matrix")
-        rec = simulate(model, "white-noise", 2.0, method=method, seed=4, settings=settings or IntegratorSettings())
+        settings = IntegratorSettings() if settings is None else settings
+        rec = simulate(model, "white-noise", 2.0, method=method, seed=4, settings=settings)
         return np.array([rec.channel(n).data for n in FRAME_SENSORS])
 
     ref = run("linear")

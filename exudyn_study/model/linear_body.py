@@ -320,10 +320,12 @@ class MatrixBodyHandle(FlexibleBodyHandle):
     Attributes
     ----------
     interface_nodes : dict name -> NodeRigidBodyRxyz number
+    fixed_interfaces : tuple of str
+        Interfaces fixed to ground by eliminating their coordinates (no node, no marker).
     coordinate_nodes : list of int
         Nodes of the body's coordinates, in the object's order (the interface nodes, then
         the ``NodeGenericODE2`` of the remaining coordinates if any).
-    transformation : ndarray, shape (n_modal, n_modal)
+    transformation : ndarray, shape (n_modal, n_coordinates)
         ``P``: linear-CMS (modal) coordinates = ``P @`` body coordinates.
     ffrf : FFRFData
     """
@@ -332,6 +334,7 @@ class MatrixBodyHandle(FlexibleBodyHandle):
     coordinate_nodes: list = field(default_factory=list)
     transformation: np.ndarray | None = field(default=None, repr=False)
     ffrf: FFRFData | None = field(default=None, repr=False)
+    fixed_interfaces: tuple = ()
 
     def node_map(self, nodes) -> np.ndarray:
         """Displacements of mesh ``nodes`` per unit body coordinate, shape (3 len(nodes), n_coordinates)."""
@@ -404,6 +407,7 @@ def add_linear_matrix_body(
     ffrf: FFRFData,
     damping_ratios: Sequence[float] | np.ndarray,
     name: str | None = None,
+    fixed_interfaces=(),
 ) -> MatrixBodyHandle:
     """Add ``body`` as a linear CMS body with constant matrices (``ObjectGenericODE2``).
 
@@ -430,6 +434,10 @@ def add_linear_matrix_body(
     damping_ratios : array_like, shape (body.n_modes,)
         Damping ratio per flexible mode; the rigid-body modes are undamped.
     name : str, optional
+    fixed_interfaces : sequence of str
+        Interfaces fixed to ground: their six coordinates are eliminated (the columns of
+        ``P`` dropped), the same constrained system as a fixed joint to ground without its
+        six equations and the joint's per-step work (the rig's foundation feet).
 
     Returns
     -------
@@ -447,7 +455,18 @@ def add_linear_matrix_body(
 
     name = name or body.name
     damping = modal_damping_matrix(body.frequencies_hz, damping_ratios)
+    from ..errors import InputError
+
+    fixed = tuple(fixed_interfaces)
+    unknown = sorted(set(fixed) - set(body.interface_names))
+    if unknown:
+        raise InputError(f"fixed_interfaces {unknown} are not interfaces of body {body.name!r}; it has "
+                         f"{list(body.interface_names)}")
     p = interface_coordinate_transformation(body, ffrf)
+    free = [i for i, itf in enumerate(body.interface_names) if itf not in fixed]
+    columns = np.r_[np.concatenate([6 * i + np.arange(6) for i in free] + [np.zeros(0, int)]).astype(int),
+                    np.arange(6 * len(body.interface_names), p.shape[1])]
+    p = p[:, columns]
     stiffness = np.concatenate([np.zeros(6), body.modal_stiffness()])
     damp = np.concatenate([np.zeros(6), np.diag(damping)])
 
@@ -457,7 +476,7 @@ def add_linear_matrix_body(
         return mc
 
     # mass P^T P = blockdiag((T T^T)^-1, I) exactly (N orthonormal, N^T T^+ = 0): stored sparse
-    n_itf = 6 * len(body.interface_names)
+    n_itf = 6 * len(free)
     mass = p.T @ p
     mass[:n_itf, n_itf:] = 0.0
     mass[n_itf:, :n_itf] = 0.0
@@ -466,11 +485,13 @@ def add_linear_matrix_body(
     nodes, markers, positions = {}, {}, {}
     for itf in body.interface_names:
         centre = weighted_center(body, itf)
+        positions[itf] = centre
+        if itf in fixed:
+            continue
         nodes[itf] = mbs.AddNode(eii.NodeRigidBodyRxyz(
             name=f"{name}:{itf}", referenceCoordinates=[float(v) for v in centre] + [0.0, 0.0, 0.0],
             visualization=eii.VNodeRigidBodyRxyz(show=False)))
         markers[itf] = mbs.AddMarker(eii.MarkerNodeRigid(nodeNumber=nodes[itf]))
-        positions[itf] = centre
     coordinate_nodes = list(nodes.values())
     n_rest = p.shape[1] - 6 * len(nodes)
     if n_rest:
@@ -488,4 +509,4 @@ def add_linear_matrix_body(
         body=body, object_number=obj, rigid_node=-1, modal_node=-1, interface_markers=markers,
         interface_positions_m=positions, damping_ratios=np.asarray(damping_ratios, dtype=float),
         position_m=np.zeros(3), interface_nodes=nodes, coordinate_nodes=coordinate_nodes, transformation=p,
-        ffrf=ffrf)
+        ffrf=ffrf, fixed_interfaces=fixed)

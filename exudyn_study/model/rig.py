@@ -45,8 +45,11 @@ import numpy as np
 
 from ..errors import InputError
 
-__all__ = ["RigParameters", "RigHandles", "Drive", "DRIVE_UPSAMPLING", "band_limited_upsample", "add_rig",
-           "generic_joint", "ground_marker", "position_marker"]
+#: interfaces of the rear foundation fixed to ground by the rig
+FOUNDATION_GROUND_INTERFACES = ("ground_left", "ground_right")
+
+__all__ = ["FOUNDATION_GROUND_INTERFACES", "RigParameters", "RigHandles", "Drive", "DRIVE_UPSAMPLING",
+           "band_limited_upsample", "add_rig", "generic_joint", "ground_marker", "position_marker"]
 
 @dataclass(frozen=True)
 class RigParameters:
@@ -412,7 +415,9 @@ def add_rig(mbs, frame_markers: dict, frame_positions: dict, foundation, params:
         Interface name -> global patch centre (m), same keys.
     foundation : FlexibleBodyHandle-like
         The rear foundation (``interface_markers``, ``interface_positions_m`` with
-        'ground_left', 'ground_right', 'frame_left', 'frame_right').
+        'ground_left', 'ground_right', 'frame_left', 'frame_right'). Interfaces in its
+        ``fixed_interfaces`` (if any) are already fixed (their coordinates eliminated):
+        no joint is added for them.
     params : RigParameters
     ground : int, optional
         An existing ground object (created if None).
@@ -505,12 +510,14 @@ def add_rig(mbs, frame_markers: dict, frame_positions: dict, foundation, params:
         markerNumbers=[_body_marker(mbs, h.bodies["front_strut"], f_pos, fs),
                        position_marker(mbs, frame_markers["front_strut"])],
         visualization=eii.VObjectJointSpherical(show=False)))
-    # rear foundation: fixed to ground, spherical to the frame's rear attachments
+    # rear foundation: fixed to ground (unless its body has these coordinates eliminated already,
+    # ``fixed_interfaces``), spherical to the frame's rear attachments
     for side in ("left", "right"):
         gname = f"ground_{side}"
-        h.joints[f"foundation_{gname}"] = generic_joint(
-            mbs, ground_marker(mbs, h.ground, foundation.interface_positions_m[gname]),
-            foundation.interface_markers[gname], (1, 1, 1, 1, 1, 1), f"foundation_{gname}")
+        if gname not in getattr(foundation, "fixed_interfaces", ()):
+            h.joints[f"foundation_{gname}"] = generic_joint(
+                mbs, ground_marker(mbs, h.ground, foundation.interface_positions_m[gname]),
+                foundation.interface_markers[gname], (1, 1, 1, 1, 1, 1), f"foundation_{gname}")
         h.joints[f"foundation_rear_{side}"] = mbs.AddObject(eii.ObjectJointSpherical(
             name=f"foundation_rear_{side}",
             markerNumbers=[position_marker(mbs, foundation.interface_markers[f"frame_{side}"]),

@@ -31,13 +31,18 @@ The linear formulation has two Exudyn elements (``element``):
   any mesh node (``MarkerSuperElement*``, ``SensorSuperElement``), as the physics
   entries that attach to node sets or change the body's reduced damping need;
 - ``'matrix'``: an ``ObjectGenericODE2`` with the constant mass, stiffness and damping
-  matrices (:func:`~exudyn_study.model.linear_body.add_linear_matrix_body`), interface
-  nodes tied to the modal coordinates by constant constraints, and the sensors read
-  from the modal accelerations. Same linearised system, and the Exudyn time integration
+  matrices (:func:`~exudyn_study.model.linear_body.add_linear_matrix_body`) in
+  coordinates whose first entries are the interface patches' small rigid motions (one
+  rigid node per interface, so no constraints attach the body), and the sensors read
+  from the body's coordinate accelerations; the rig's parts on Lie-group nodes (constant mass
+  matrices) and the rear foundation's feet fixed by eliminating their coordinates (no
+  joints ``foundation_ground_left``/``_right``, no interfaces ``rear_foundation.ground_*``).
+  Same linearised system, and the Exudyn time integration
   of Model 1 several times faster (``benchmarks/bench_simulation.py``): the
   super-element rebuilds its mass matrix, FFRF terms and mesh-node coordinates in every
   residual evaluation. Markers at mesh nodes are available through
-  ``handle.node_marker`` (a point node tied to the modes), not as super-element markers.
+  ``handle.node_marker`` (a point node tied to the body's coordinates by a constant
+  linear constraint), not as super-element markers.
 """
 
 from __future__ import annotations
@@ -53,7 +58,7 @@ from ..damping import PerBody, damping_function
 from ..errors import InputError
 from ..sensors import SENSORS, Sensor
 from ..sensors import sensor as lookup_sensor
-from .rig import Drive, RigHandles, RigParameters, add_rig, generic_joint
+from .rig import FOUNDATION_GROUND_INTERFACES, Drive, RigHandles, RigParameters, add_rig, generic_joint
 
 __all__ = [
     "VARIANTS",
@@ -447,7 +452,9 @@ def build_model_from_bodies(
         ratios[name] = zeta
         color = colors.get(name, (0.9, 0.5, 0.2, 1))
         if element == "matrix":
-            handles[name] = add_linear_matrix_body(mbs, fb.body, fb.ffrf, zeta, name=name)
+            fixed = FOUNDATION_GROUND_INTERFACES if name == "rear_foundation" else ()
+            handles[name] = add_linear_matrix_body(mbs, fb.body, fb.ffrf, zeta, name=name,
+                                                   fixed_interfaces=fixed)
         elif formulation == "linear":
             keep = [c[2] for c in chosen if c[1] == name] if exudyn_mesh == "used" else None
             handles[name] = add_linear_cms_body(mbs, fb.body, fb.ffrf, zeta, ground, name=name, color=color,
