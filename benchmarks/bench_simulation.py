@@ -19,7 +19,11 @@ Per model (``mini``: the test frame of ``tests/rig_fixtures.py``; ``model1``/``m
    relative tolerance 1e-6, the defaults; and with ``single_iteration=True``, one
    Newton iteration per step); speed (real-time factor, us per step, Newton
    iterations per step) and band-limited (< 70 Hz) rms error per channel against the
-   exact linear solution (targets: 3 %, at least real time).
+   exact linear solution (targets: 3 %, at least real time). Then the same model with
+   constant-matrix bodies (``element='matrix'``: ``ObjectGenericODE2`` with the interface
+   motions as coordinates, the rig's parts on Lie-group nodes, so every mass matrix is
+   constant) for ``--matrix-seconds`` (default the whole ``--duration``), at 1/10 and
+   1/8 ms, Newton (default) and one iteration per step.
 3. **Exudyn, reduced** (generalised-alpha on the constraint-projected linearisation,
    ``method='exudyn-reduced'``): the full duration at h = 1, 1/8, 1/16, 1/32 ms; speed
    and accuracy.
@@ -125,31 +129,45 @@ def bench(name: str, args) -> dict:
 
     n_ex = int(args.exudyn_seconds * 1000)
     xs = x[: n_ex + 1]
+    n_mx = int((args.duration if args.matrix_seconds is None else args.matrix_seconds) * 1000)
+    xm = x[: n_mx + 1]
     from exudyn_study.model import rig as rig_module
 
     position_marker = rig_module.position_marker
+    superelement = {"exudyn_mesh": "used"}
+    matrix = {"element": "matrix"}
     runs = (("before: rigid markers on spherical joints, Newton rtol 1e-8",
-             lambda mbs, marker: marker, IntegratorSettings(relative_tolerance=1e-8)),
-            ("after: position markers, defaults", position_marker, IntegratorSettings()),
+             lambda mbs, marker: marker, IntegratorSettings(relative_tolerance=1e-8), superelement),
+            ("after: position markers, defaults", position_marker, IntegratorSettings(), superelement),
             ("after: position markers, one Newton iteration per step", position_marker,
-             IntegratorSettings(single_iteration=True)))
-    for label, marker_fn, settings in runs:
+             IntegratorSettings(single_iteration=True), superelement),
+            ("constant-matrix bodies (element='matrix'), defaults", position_marker, IntegratorSettings(),
+             matrix),
+            ("constant-matrix bodies, one Newton iteration per step", position_marker,
+             IntegratorSettings(single_iteration=True), matrix),
+            ("constant-matrix bodies, one Newton iteration per step", position_marker,
+             IntegratorSettings(step_s=1.25e-4, single_iteration=True), matrix))
+    for label, marker_fn, settings, kw in runs:
         if label.startswith("before") and args.skip_before:
+            continue
+        if kw is superelement and args.skip_superelement:
             continue
         rig_module.position_marker = marker_fn
         try:
-            m = build(name, args.mesh, exudyn_mesh="used")
+            m = build(name, args.mesh, **kw)
         finally:
             rig_module.position_marker = position_marker
-        y, st = simulate_exudyn(m, xs, settings)
-        e = band_limited_rms_error(y, ref[:, : xs.size])
+        xr = xm if kw is matrix else xs
+        y, st = simulate_exudyn(m, xr, settings)
+        e = band_limited_rms_error(y, ref[:, : xr.size])
         print(f"[2] Exudyn full model, h = {1e3 * settings.step_s:.4g} ms, rho {settings.radius(True)}, "
-              f"{args.exudyn_seconds:.3g} s, {label}: {st['real_time_factor']:.3f}x wall / "
+              f"{(xr.size - 1) / 1000:.3g} s, {label}: {st['real_time_factor']:.3f}x wall / "
               f"{st['cpu_real_time_factor']:.3f}x CPU real time, {1e6 * st['cpu_s'] / st['steps']:.0f} us CPU "
               f"per step, {st.get('newton_iterations', 0) / st['steps']:.2f} Newton it/step; error < 70 Hz "
               f"{fmt(e)}; per channel "
               + " ".join(f"{n}={100 * v:.1f}" for n, v in zip(lin.sensor_names, e, strict=True)), flush=True)
-        res[f"exudyn_{label}"] = (st["real_time_factor"], st["cpu_real_time_factor"], float(np.max(e)))
+        res[f"exudyn_{label}_{settings.step_s}"] = (st["real_time_factor"], st["cpu_real_time_factor"],
+                                                    float(np.max(e)))
 
     for h in args.reduced_steps:
         y, st = simulate_exudyn_reduced(lin, model.drive, IntegratorSettings(step_s=h))
@@ -204,6 +222,10 @@ def main(argv=None) -> int:
     p.add_argument("--skip-before", action="store_true", help="skip the whole-patch Exudyn run (slow)")
     p.add_argument("--linear-only", action="store_true",
                    help="only the linear path, with the default drive and the plain spline (upsampling 1)")
+    p.add_argument("--matrix-seconds", type=float, default=None,
+                   help="simulated seconds of the element='matrix' runs (default --duration)")
+    p.add_argument("--skip-superelement", action="store_true",
+                   help="only the constant-matrix Exudyn runs (no super-element runs)")
     args = p.parse_args(argv)
     print(f"load average {os.getloadavg()}, {os.cpu_count()} cores", flush=True)
     for name in args.models:
