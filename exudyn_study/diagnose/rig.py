@@ -16,9 +16,15 @@
    training residual, log parameters), rejected if not identifiable (relative std > 30 %
    or at a bound), if they explain too little (< 30 % of the error) or if the fitted model
    still misses most of the response (relative error > 0.7: a fit that switches the
-   response off is no explanation), and chosen by the Akaike information criterion; up to
-   three rounds, each finding carried into the next round's model; what is left
-   significant is reported as unexplained.
+   response off is no explanation), and chosen by the Akaike information criterion. Far
+   from the recordings (resonances misplaced) candidates that explain little alone are
+   fitted together, and each member of that joint fit is judged on its own: taken out (the
+   others refitted) it must lose on the training AIC and on the held-out error. If the
+   training data hold one drive at two levels, the nonlinear candidates are fitted on the
+   level-dependent share of the response (``y_strong - c y_weak``), which the model's
+   linear errors do not disturb. Rounds until nothing significant is left, the time budget
+   is spent or no candidate explains what is left, each finding carried into the next
+   round's model; what is left significant is reported as unexplained.
 5. **Prove**: held-out error before and after per channel and relative pseudo damage
    at the z sensors before and after; a plain-language explanation.
 """
@@ -37,6 +43,7 @@ from ..errors import InputError
 from .rig_candidates import (
     RIG_CANDIDATES,
     CandidateContext,
+    ExplainContext,
     register_rig_candidate,
     sensor_component,
     unregister_rig_candidate,
@@ -83,6 +90,14 @@ class RigDiagnosisSettings:
     # candidates (at most this many, at different places) together
     composite_max: int = 8
     fit_nfev_composite: int = 40
+    # the joint fit's connectors (joints, pad) fit their damping times too (exact, bilinear)
+    composite_damping: bool = True
+    # function evaluations of the refits that take a member out of a joint fit (chord steps with the
+    # joint fit's Jacobian: one evaluation each)
+    member_nfev: int = 15
+    # a member of a joint fit must cut the held-out error by this share (against the others refitted
+    # without it) and lower the training AIC
+    min_member_gain: float = 0.02
     fit_nfev: int = 30  # function evaluations of a full fit
     n_fit_simulated: int = 2  # of the n_fit, at most this many simulated in time (nonlinear)
     fit_nfev_simulated: int = 15  # function evaluations of a nonlinear (time-simulated) fit
@@ -256,7 +271,12 @@ class _SpectralEvaluator:
         return np.concatenate(parts)
 
 
-def _fit(h: Hypothesis, ev: _Evaluator, channels, max_nfev=30):
+def _fit(h: Hypothesis, ev: _Evaluator, channels, max_nfev=30, jac=None, info: dict | None = None):
+    """Fit ``h`` on ``ev`` from ``h.start``: (p, std, rss, at_bound, nfev).
+
+    ``jac``: a Jacobian callable in the fitting variable (default finite differences: one
+    evaluation per parameter and iteration); ``info`` gets the final Jacobian (``'jac'``).
+    """
     from scipy.optimize import least_squares
 
     pos, lo, hi = log_bounds(h)
@@ -270,7 +290,17 @@ def _fit(h: Hypothesis, ev: _Evaluator, channels, max_nfev=30):
         r = _safe_residual(h, ev, channels, to_params(h, x))
         return penalty if r is None else r  # an unstable parameter set: far worse than any response
 
-    res = least_squares(fun, x0, bounds=(lo, hi), diff_step=1e-3, max_nfev=max_nfev, x_scale=1.0)
+    res = least_squares(
+        fun,
+        x0,
+        jac="2-point" if jac is None else jac,
+        bounds=(lo, hi),
+        diff_step=1e-3,
+        max_nfev=max_nfev,
+        x_scale=1.0,
+    )
+    if info is not None:
+        info["jac"] = res.jac
     p = to_params(h, res.x)
     n_eff = _effective_samples(ev)
     rss = float(2 * res.cost)
@@ -334,14 +364,56 @@ def _catalogue_default(physics: str, name: str) -> float:
     return float(entry(physics).parameter(name).default)
 
 
-def _fit_together(hyps, scores, build, ev_fit, ev_time, channels, recs, gains, rss0, st, say, meta, round_no):
+def _holdout_error(ev_hold: _Evaluator, system, gains) -> float:
+    """Mean over the held-out recordings of the summary error of ``system`` (exact simulation)."""
+    return float(np.mean([summary_error(e) for e in ev_hold.errors(ev_hold.simulate_exact(system, gains))]))
+
+
+def _member_neutral(comp, k: int, p) -> dict | None:
+    """Composite parameter index -> value with member ``k`` taken out (its ``neutral`` values), or None."""
+    h = comp.members[k]
+    if not h.neutral:
+        return None
+    held = {}
+    for j, (i, n) in enumerate(comp.specs):
+        if i == k:
+            held[j] = float(h.neutral.get(n, p[j]))  # the others (a linkage's mass) as fitted
+    return held
+
+
+def _fit_together(
+    hyps,
+    scores,
+    build,
+    ev_fit,
+    ev_time,
+    ev_hold,
+    hold_err0,
+    channels,
+    recs,
+    gains,
+    rss0,
+    st,
+    say,
+    meta,
+    round_no,
+):
     """Fit the best-screened linear candidates at different places together; their acceptable members.
 
-    Returns fit records like the single fits (one per member kept), or an empty list if the
-    composite explains less than ``min_improvement`` or switches the response off. A member
-    is kept if at least one of its fitted parameters is identifiable.
+    The members are judged one by one, not by one threshold on the whole fit: a member whose
+    ``neutral`` values are known is taken out (held there) and the others refitted (chord
+    steps with the joint fit's Jacobian: ``member_nfev`` evaluations, not that many times
+    the number of parameters); it pays
+    for itself if the joint fit with it beats that refit on the training residual by the
+    Akaike criterion and cuts the held-out error by at least ``min_member_gain`` of it.
+    Members that do not pay are taken out together and the rest refitted once. A member is
+    kept if its firm fitted parameters are identifiable (relative std < ``max_relative_std``,
+    not at a bound) and at least one of them is. The kept members together must cut the
+    held-out error by ``min_improvement`` and keep the response on.
+
+    Returns fit records like the single fits (one per member kept), or an empty list.
     """
-    from .rig_hypotheses import CompositeHypothesis
+    from .rig_hypotheses import CompositeHypothesis, HeldHypothesis
 
     members, places = [], set()
     for i in np.argsort(scores)[::-1]:
@@ -357,14 +429,19 @@ def _fit_together(hyps, scores, build, ev_fit, ev_time, channels, recs, gains, r
         members.append(h)
     if len(members) < 2:
         return []
-    # a damping time enters bilinearly (damping = time x stiffness): held at the catalogue's default
-    # (the single fits push it to its bound to flatten misplaced resonances)
-    free = {i: [n for n in h.names if n != "damping_time_s"] for i, h in enumerate(members)}
+    # a damping time enters bilinearly (damping = time x stiffness); it starts at the catalogue's default
+    # (the single fits push it to its bound to flatten misplaced resonances) and is fitted only with
+    # composite_damping (the composite takes the bilinear term exactly)
+    free = {
+        i: [n for n in h.names if st.composite_damping or n != "damping_time_s"]
+        for i, h in enumerate(members)
+    }
     for h in members:
         if "damping_time_s" in h.names:
             k = h.names.index("damping_time_s")
             h.start = np.array(h.start, dtype=float)
-            h.start[k] = _catalogue_default(h.physics, "damping_time_s")
+            default = _catalogue_default(h.physics, "damping_time_s")
+            h.start[k] = default if default > 0 or not st.composite_damping else 1e-4
     say(f"fitting {len(members)} candidates together: {', '.join(h.label for h in members)}")
     try:
         comp = CompositeHypothesis(members, build, free)
@@ -372,7 +449,51 @@ def _fit_together(hyps, scores, build, ev_fit, ev_time, channels, recs, gains, r
         say(f"the candidates cannot be combined: {exc}")
         return []
     comp.base_gains = gains
-    p, std, rss, at_bound, nfev = _fit(comp, ev_fit, channels, st.fit_nfev_composite)
+    n_eff = _effective_samples(ev_fit)
+    info = {}
+    p, std, rss, at_bound, nfev = _fit(comp, ev_fit, channels, st.fit_nfev_composite, info=info)
+    if not math.isfinite(rss):
+        return []
+    jac = info["jac"]  # the refits below keep it (chord steps: one evaluation per step)
+    held_out = {}  # composite index -> value of the members taken out
+    hold_err = _holdout_error(ev_hold, comp.system(p), gains)
+    verdicts = {}
+    for k, h in enumerate(members):
+        held = _member_neutral(comp, k, p)
+        if held is None:
+            verdicts[k] = None
+            continue
+        sub = HeldHypothesis(comp, held)
+        sub.start = np.clip(np.delete(p, list(held)), sub.lower, sub.upper)
+        p_k, _, rss_k, _, _ = _fit(sub, ev_fit, channels, st.member_nfev, jac=lambda x, c=sub.keep: jac[:, c])
+        err_k = _holdout_error(ev_hold, sub.system(p_k), gains) if math.isfinite(rss_k) else math.inf
+        n_k = len(held)
+        d_aic = _aic(rss, p.size, n_eff) - _aic(rss_k, p.size - n_k, n_eff)
+        gain = 1.0 - hold_err / err_k if math.isfinite(err_k) else 1.0
+        pays = d_aic < 0.0 and gain >= st.min_member_gain
+        verdicts[k] = {"aic": round(d_aic, 1), "holdout_gain": round(gain, 4), "pays": bool(pays)}
+        say(
+            f"  {h.label}: taken out (others refitted) the held-out error is {err_k:.4g} against "
+            f"{hold_err:.4g} with it ({100 * gain:+.1f} %), training AIC {d_aic:+.0f}: "
+            f"{'pays for itself' if pays else 'does not pay for itself'}"
+        )
+        if not pays:
+            held_out.update(held)
+    if held_out:
+        if len(held_out) == p.size:
+            say("no member of the joint fit pays for itself")
+            p_all = p
+        else:
+            sub = HeldHypothesis(comp, held_out)
+            sub.start = np.clip(np.delete(p, list(held_out)), sub.lower, sub.upper)
+            p_sub, std_sub, rss, at_sub, nfev_sub = _fit(
+                sub, ev_fit, channels, st.member_nfev, jac=lambda x, c=sub.keep: jac[:, c]
+            )
+            p_all, std, at_bound = sub.full(p_sub), np.zeros(p.size), np.ones(p.size, bool)
+            std[sub.keep], at_bound[sub.keep] = std_sub, at_sub
+            nfev += nfev_sub
+            hold_err = _holdout_error(ev_hold, comp.system(p_all), gains)
+        p = p_all
     improvement = 1.0 - math.sqrt(rss / rss0) if math.isfinite(rss) else -1.0
     r_time = _safe_residual(comp, ev_time, channels, p)
     ratio = 0.0 if r_time is None else _response_ratio(recs, ev_time.simulate(comp.system(p), gains))
@@ -385,24 +506,29 @@ def _fit_together(hyps, scores, build, ev_fit, ev_time, channels, recs, gains, r
         std_k = np.zeros(len(h.names))
         for j in mine:
             std_k[h.names.index(comp.specs[j][1])] = std[j]
+        firm = [j for j in mine if comp.specs[j][1] not in h.may_vanish]
         rec = {
             "h": h,
             "p": values[k],
             "std": std_k,
             "rss": rss,
-            "aic": _aic(rss, p.size, _effective_samples(ev_fit)),
-            "identifiable": bool(np.any(good[mine])),
+            "aic": _aic(rss, p.size, n_eff),
+            "identifiable": bool(np.all(good[firm]) and np.any(good[mine])),
             "improvement": improvement,
             "error_after": math.sqrt(float(r_time @ r_time) / len(recs)) if r_time is not None else 1e9,
             "response_ratio": ratio,
             "score": float(scores[hyps.index(h)]),
             "nfev": nfev,
+            "member": verdicts[k],
+            "holdout_error": hold_err,
         }
         rec["rejected"] = (
-            "not identifiable in the joint fit"
+            "does not pay for itself in the joint fit"
+            if verdicts[k] is not None and not verdicts[k]["pays"]
+            else "not identifiable in the joint fit"
             if not rec["identifiable"]
-            else "explains too little (joint fit)"
-            if improvement < st.min_improvement
+            else f"the joint fit cuts the held-out error by less than {100 * st.min_improvement:.0f} %"
+            if hold_err > (1.0 - st.min_improvement) * hold_err0
             else "the fitted model switches the response off"
             if ratio < st.min_response_ratio
             else None
@@ -416,14 +542,106 @@ def _fit_together(hyps, scores, build, ev_fit, ev_time, channels, recs, gains, r
             "fitted_together": True,
             "improvement": round(f["improvement"], 4),
             "identifiable": f["identifiable"],
+            "member": f["member"],
             "rejected": f["rejected"],
             "training_error_after": round(f["error_after"], 4),
+            "holdout_error_after": round(f["holdout_error"], 4),
             "response_ratio": round(f["response_ratio"], 4),
             "parameters": dict(zip(f["h"].names, np.round(f["p"], 6).tolist(), strict=True)),
+            "std": dict(zip(f["h"].names, np.round(f["std"], 6).tolist(), strict=True)),
         }
         for f in out
     ]
     return [f for f in out if f["rejected"] is None]
+
+
+def _hypotheses(cand, ctx) -> list:
+    """Return the hypotheses of registered candidate ``cand`` in the round ``ctx`` (checked)."""
+    made = list(cand.factory(ctx) or [])
+    for h in made:
+        if not isinstance(h, Hypothesis):
+            raise InputError(
+                f"rig candidate {cand.physics!r}: its factory returned {h!r}; expected Hypothesis "
+                "objects (exudyn_study.diagnose.rig_hypotheses)"
+            )
+    return made
+
+
+def _fit_on_distortion(cands, ctx, ev_d, ev_time, channels, system, gains, st, say, meta, round_no):
+    """Screen and fit simulated (nonlinear) candidates on the level-dependent share of the response.
+
+    ``ev_d`` (:class:`_DistortionEvaluator`) compares the measured and simulated differences
+    between one drive at two levels; the current ``system`` leaves the whole measured one
+    (or, with nonlinear findings, what they miss). A candidate is acceptable if it explains
+    at least ``min_improvement`` of it (``1 - rms after / rms before``), its parameters are
+    identifiable and its model keeps the response on (``ev_time``: the training recordings).
+    Returns fit records like the single fits (``rejected`` None if acceptable).
+    """
+    hyps = [h for cand in cands for h in _hypotheses(cand, ctx)]
+    if not hyps:
+        return []
+    for h in hyps:
+        h.base_gains = gains
+    r0 = ev_d.residual_vector(system, gains)
+    rss0 = float(r0 @ r0)
+    say(f"screening {len(hyps)} nonlinear candidates on the level-dependent share of the response")
+    scores = [_screen(h, ev_d, channels, r0, st.screen_nfev) for h in hyps]
+    order = [i for i in np.argsort(scores)[::-1] if scores[i] >= st.min_screen_share * max(scores)]
+    n_eff = _effective_samples(ev_d)
+    out = []
+    for i in order[: st.n_fit_simulated]:
+        h = hyps[i]
+        say(f"fitting {h.label} on the level-dependent share (screening score {scores[i]:.3f})")
+        p, std, rss, at_bound, nfev = _fit(h, ev_d, channels, st.fit_nfev_simulated)
+        rel_std = np.abs(std) / np.maximum(np.abs(p), 1e-300)
+        firm = np.array([n not in h.may_vanish for n in h.names])
+        good = (rel_std < st.max_relative_std) & ~at_bound
+        r_time = _safe_residual(h, ev_time, channels, p)
+        sims = None if r_time is None else ev_time.simulate(h.system(p), _gains(h, p, channels))
+        ratio = 0.0 if sims is None else _response_ratio(ev_time.recs, sims)
+        rss_time = math.inf if r_time is None else float(r_time @ r_time)
+        f = {
+            "h": h,
+            "p": p,
+            "std": std,
+            "rss": rss,
+            "aic": _aic(rss, p.size, n_eff),
+            "identifiable": bool(np.all(good[firm]) and np.any(good)),
+            "improvement": 1.0 - math.sqrt(rss / rss0) if math.isfinite(rss) and rss0 > 0 else -1.0,
+            "error_after": math.sqrt(rss_time / len(ev_time.recs)) if r_time is not None else 1e9,
+            "rss_time": rss_time,
+            "response_ratio": ratio,
+            "score": float(scores[i]),
+            "nfev": nfev,
+        }
+        f["rejected"] = (
+            "not identifiable"
+            if not f["identifiable"]
+            else "explains too little of the level-dependent share"
+            if f["improvement"] < st.min_improvement
+            else "the fitted model switches the response off"
+            if ratio < st.min_response_ratio
+            else None
+        )
+        out.append(f)
+    meta["candidates"] += [
+        {
+            "round": round_no + 1,
+            "physics": f["h"].physics,
+            "location": f["h"].location,
+            "fitted_on": "level-dependent share",
+            "signature_score": round(f["score"], 4),
+            "improvement": round(f["improvement"], 4),
+            "identifiable": f["identifiable"],
+            "rejected": f["rejected"],
+            "training_error_after": round(f["error_after"], 4),
+            "response_ratio": round(f["response_ratio"], 4),
+            "parameters": dict(zip(f["h"].names, np.round(f["p"], 6).tolist(), strict=True)),
+            "std": dict(zip(f["h"].names, np.round(f["std"], 6).tolist(), strict=True)),
+        }
+        for f in out
+    ]
+    return out
 
 
 def _polish(f: dict, ev: _Evaluator, channels, recs, st, say) -> None:
@@ -627,6 +845,10 @@ def diagnose_rig(
     ev_screen = _Evaluator(screen_recs, sensor_names, pad)
     evaluators = (ev_train, ev_train_nonlinear, ev_hold, ev_screen)
     ev_spectral = _SpectralEvaluator(train_recs, sensor_names)
+    # one drive at two levels inside the training data: nonlinear candidates are judged on the
+    # level-dependent share of the response, which no linear error of the model disturbs
+    pair = _level_pair(ev_train_nonlinear.recs)
+    ev_distortion = _DistortionEvaluator(pair, sensor_names, pad) if pair is not None else None
     p_cell = st.p_value / (len(tr) + len(ho))
 
     def compare(lin, gains):
@@ -718,18 +940,18 @@ def diagnose_rig(
             nonlinear_sensors=_nonlinear_sensors(distortion, channels, located),
         )
         hyps: list[Hypothesis] = []
+        deferred = []  # simulated candidates judged on the level-dependent share if no linear one fits
         for cand in list(RIG_CANDIDATES.values()):
-            if not want(cand.physics) or (cand.needs_level_dependence and not level_dependent):
+            if not want(cand.physics):
                 continue
-            made = list(cand.factory(ctx) or [])
-            for h in made:
-                if not isinstance(h, Hypothesis):
-                    raise InputError(
-                        f"rig candidate {cand.physics!r}: its factory returned {h!r}; expected Hypothesis "
-                        "objects (exudyn_study.diagnose.rig_hypotheses)"
-                    )
-            hyps += made
-        if not hyps:
+            if ev_distortion is not None and cand.kind == "simulated":
+                if level_dependent or ctx.nonlinear_sensors:
+                    deferred.append(cand)
+                continue
+            if cand.needs_level_dependence and not level_dependent:
+                continue
+            hyps += _hypotheses(cand, ctx)
+        if not hyps and not deferred:
             stop_reason = "no catalogue candidate applies to the located mismatch"
             break
         for h in hyps:
@@ -748,7 +970,9 @@ def diagnose_rig(
         r0 = ev_fit.residual_vector(lin_r, gains_r)
         r0_screen = ev_scr.residual_vector(lin_r, gains_r)
         scores = [_screen(h, ev_scr, channels, r0_screen, st.screen_nfev) for h in hyps]
-        order = [i for i in np.argsort(scores)[::-1] if scores[i] >= st.min_screen_share * max(scores)]
+        order = [
+            i for i in np.argsort(scores)[::-1] if scores[i] >= st.min_screen_share * max(scores, default=0.0)
+        ]
         # 4 fit the best candidates ----------------------------------------------------------
         n_eff = _effective_samples(ev_fit)
         rss0 = float(r0 @ r0)
@@ -835,6 +1059,8 @@ def diagnose_rig(
                 build_current,
                 ev_spectral,
                 ev_train,
+                ev_hold,
+                float(np.mean([summary_error(e) for e in ev_hold.errors(sims_ho)])),
                 channels,
                 train_recs,
                 gains_r,
@@ -845,6 +1071,22 @@ def diagnose_rig(
                 round_no,
             )
             together = bool(ok)
+        if not ok and deferred:
+            fitted_nl = _fit_on_distortion(
+                deferred,
+                ctx,
+                ev_distortion,
+                ev_train_nonlinear,
+                channels,
+                sys_r,
+                gains_r,
+                st,
+                say,
+                meta,
+                round_no,
+            )
+            fitted += fitted_nl
+            ok = [f for f in fitted_nl if f["rejected"] is None]
         if not ok:
             stop_reason = "no catalogue entry explains it: " + "; ".join(
                 f"{f['h'].label} improves {100 * f['improvement']:.0f} % ({f['rejected']})" for f in fitted
@@ -854,7 +1096,8 @@ def diagnose_rig(
         batch = ok if together else _batch(ok, st.max_batch)
         if spectral and not together:
             for f in batch:
-                _polish(f, ev_train, channels, train_recs, st, say)
+                if f["h"].kind_linear:
+                    _polish(f, ev_train, channels, train_recs, st, say)
         # carry the findings into the model (exact: a nonlinear model is simulated in time)
         sys_before, gains_before, n_accepted = sys_r, gains_r, len(accepted)
 
@@ -1082,16 +1325,13 @@ def _screen(h: Hypothesis, ev: _Evaluator, channels, r0: np.ndarray, nfev: int =
     return max(0.0, 1.0 - best / rss0)
 
 
-def _distortion_shares(recs) -> tuple | None:
-    """Per channel, the share of the response a linear structure cannot produce, from two levels of one drive.
+def _level_pair(recs) -> tuple | None:
+    """Return the two recordings of one drive at the most different levels: ``(c, weaker, stronger, n)``.
 
-    If two recordings' drives are scaled copies of each other in time (the thesis's test
-    signal at 100 % and 50 %: correlation > 0.9999), any linear structure responds to the
-    stronger one with exactly the scaled response of the weaker one, so
-    ``y_b - c y_a`` (``c`` the drives' least-squares scale) holds only the level-dependent
-    (nonlinear) part and noise: no model is needed. Returns
-    ``rms(y_b - c y_a) / rms(y_b)`` per channel (band-limited, 3-60 Hz) of the pair with
-    the largest level ratio, or None without such a pair.
+    Two drives are one drive at two levels if they are scaled copies in time (correlation
+    > 0.9999 over their first ``n`` common samples) and their rms differs by more than
+    20 %; ``c`` is the least-squares scale from the weaker to the stronger drive. None
+    without such a pair.
     """
     best = None
     for a in recs:
@@ -1105,12 +1345,62 @@ def _distortion_shares(recs) -> tuple | None:
             c = float(ub @ ua / (ua @ ua))
             if best is None or c > best[0]:
                 best = (c, a, b, n)
-    if best is None:
+    return best
+
+
+def _distortion_shares(recs) -> tuple | None:
+    """Per channel, the share of the response a linear structure cannot produce, from two levels of one drive.
+
+    If two recordings' drives are scaled copies of each other in time (the thesis's test
+    signal at 100 % and 50 %: correlation > 0.9999), any linear structure responds to the
+    stronger one with exactly the scaled response of the weaker one, so
+    ``y_b - c y_a`` (``c`` the drives' least-squares scale) holds only the level-dependent
+    (nonlinear) part and noise: no model is needed. Returns
+    ``rms(y_b - c y_a) / rms(y_b)`` per channel (band-limited, 3-60 Hz) of the pair with
+    the largest level ratio, or None without such a pair (:func:`_level_pair`).
+    """
+    pair = _level_pair(recs)
+    if pair is None:
         return None
-    c, a, b, n = best
+    c, a, b, n = pair
     rows_a = [a.channels.index(ch) for ch in b.channels]
     d = band_filter(b.measured[:, :n] - c * a.measured[rows_a, :n])
     return np.sqrt(np.mean(d**2, axis=1)) * b.scale, b
+
+
+class _DistortionEvaluator:
+    """Residual of the level-dependent share of the response: measured against simulated.
+
+    For one drive at two levels (:func:`_level_pair`: weaker ``a``, stronger ``b``, scale
+    ``c``) the difference ``y_b - c y_a`` of the measured responses holds only what a linear
+    structure cannot produce (:func:`_distortion_shares`); the same difference of a model's
+    simulations holds only its nonlinear part. Their residual (band-limited, scaled per
+    channel as the training residual) fits a nonlinear candidate's parameters whatever linear
+    error the model still has: the linear parts cancel in both. ``residual_vector`` has the
+    :class:`_Evaluator` interface (a linear system leaves the whole measured difference).
+    """
+
+    def __init__(self, pair, sensor_names, pad_s: float):
+        from .rig_compare import BAND_HZ, RATE_HZ
+
+        c, a, b, n = pair
+        self.c = c
+        self.ev = _Evaluator([a, b], sensor_names, pad_s, exact=True)
+        self.recs = [a, b]
+        self.rows_a = np.array([a.channels.index(ch) for ch in b.channels])
+        self.scale = b.scale
+        self.target = band_filter(b.measured[:, :n] - c * a.measured[self.rows_a, :n]) * self.scale[:, None]
+        self.n = n
+        self.n_effective = int(2 * (BAND_HZ[1] - BAND_HZ[0]) * self.target.shape[1] * 4 / RATE_HZ) * len(
+            b.channels
+        )
+
+    def residual_vector(self, system, gains=None):
+        """Residual of the measured against the simulated level-dependent share, flattened."""
+        sim_a, sim_b = self.ev.simulate_exact(system, gains)
+        model = band_filter(sim_b[:, : self.n] - self.c * sim_a[self.rows_a, : self.n]) * self.scale[:, None]
+        e = self.target - model
+        return e.ravel() / math.sqrt(e.size)
 
 
 def _nonlinear_sensors(distortion, channels, located) -> list:
@@ -1236,63 +1526,13 @@ def _shifted_modes(lin0, lin1, f_max=60.0):
 
 
 def _explain(h: Hypothesis, p, std, lin0, lin1, located) -> str:
+    """Plain-language explanation of a finding: its registered ``explain`` callable, else a generic text."""
     v = {n: (float(a), float(s)) for n, a, s in zip(h.names, p, std, strict=True)}
     pairs, new = _shifted_modes(lin0, lin1)
     shifts = ", ".join(f"{a:.2f} -> {b:.2f} Hz" for a, b in pairs if abs(b - a) > 0.005)
     where = ", ".join(located[:6]) + (", ..." if len(located) > 6 else "")
-    if h.physics == "added_mass":
-        m, s = v["mass_kg"]
-        return (
-            f"A mass the model does not carry is attached near {h.location} ({h.component}): "
-            f"{m:.1f} +- {s:.1f} kg rigidly fixed there lowers the modes that move that point "
-            f"({shifts or 'small shifts'}); sensors {where} see it."
-        )
-    if h.physics == "drive_linkage_compliance":
-        k, _ = v["stiffness_n_per_m"]
-        m, _ = v["mass_kg"]
-        c, _ = v["damping_n_s_per_m"]
-        extra = f"; a new resonance at {', '.join(f'{b:.1f} Hz' for b in new)}" if new else ""
-        return (
-            f"The drive linkage is not rigid: {k:.3g} N/m with {c:.3g} N s/m and {m:.1f} kg at the pin put a "
-            f"linkage resonance into the system that every frame sensor sees{extra} ({shifts})."
-        )
-    if h.physics == "bushing_stiffening":
-        k3, s3 = v["cubic_stiffness_n_per_m3"]
-        return (
-            f"The left mudguard bracket's rubber bushing stiffens with amplitude: a cubic term of "
-            f"{k3:.3g} +- {s3:.2g} N/m^3 across the pad (z and x) explains a mismatch at {where} that grows "
-            f"with the drive level (the linear model fits the low level and misses the high one)."
-        )
-    if h.physics == "joint_stiffness":
-        kt, skt = v["stiffness_n_per_m"]
-        kr, skr = v["rotational_stiffness_n_m_per_rad"]
-        t, _ = v["damping_time_s"]
-        return (
-            f"The bolted joint {h.location} is not rigid: {kt:.3g} +- {skt:.2g} N/m in translation and "
-            f"{kr:.3g} +- {skr:.2g} N m/rad in rotation (damping time {t:.2g} s) move the modes that load "
-            f"it ({shifts or 'small shifts'}); the {h.component} sensors ({where}) see it."
-        )
-    if h.physics == "joint_friction":
-        k, _ = v["stuck_stiffness_n_per_m"]
-        f_slip, s_slip = v["slip_force_n"]
-        return (
-            f"The bolted joint {h.location} slips: a stuck contact of {k:.3g} N/m in its plane that slides "
-            f"above {f_slip:.3g} +- {s_slip:.2g} N softens and damps the modes that shear it as the drive "
-            f"level grows; sensors {where} see a mismatch that grows with level."
-        )
-    if h.physics == "modal_damping":
-        f, s = v["factor"]
-        return (
-            f"The modal damping of {h.location} is {f:.2f} +- {s:.2f} times what the model assumes: "
-            f"resonance peaks at {where} are {'lower' if f > 1 else 'higher'} than simulated; "
-            f"frequencies agree."
-        )
-    if h.physics == "sensor_gain":
-        g, s = v["gain"]
-        return (
-            f"Sensor {h.location} reads {100 * (g - 1):+.1f} +- {100 * s:.1f} % against the model at all "
-            f"frequencies while its neighbours agree: its sensitivity (calibration) is wrong, not the "
-            f"structure."
-        )
+    cand = RIG_CANDIDATES.get(h.physics)
+    if cand is not None and cand.explain is not None:
+        return str(cand.explain(h, v, ExplainContext(shifts=shifts, new_modes_hz=tuple(new), where=where)))
     values = ", ".join(f"{n} = {a:.3g} +- {s:.2g}" for n, (a, s) in v.items())
     return f"{h.physics} at {h.location}: {values} ({shifts})."

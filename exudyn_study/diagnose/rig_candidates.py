@@ -12,7 +12,10 @@ apply). The registration declares
   simulated in time);
 - ``needs_level_dependence``: only offered when the mismatch grows with the drive level
   (a nonlinear candidate explains nothing a linear model cannot, at one level);
-- ``description``: one line for the report.
+- ``description``: one line for the report;
+- ``explain``: optional ``explain(h, values, ctx: ExplainContext) -> str``, the finding's
+  plain-language explanation (``values``: parameter name -> (fitted value, std)); without
+  it the report lists the fitted values.
 
 The built-ins (``added_mass``, ``modal_damping``, ``sensor_gain``,
 ``drive_linkage_compliance``, ``joint_stiffness``, ``bushing_stiffness``,
@@ -42,6 +45,7 @@ from ..errors import InputError
 
 __all__ = [
     "CandidateContext",
+    "ExplainContext",
     "RigCandidate",
     "RIG_CANDIDATES",
     "register_rig_candidate",
@@ -115,6 +119,25 @@ class CandidateContext:
 
 
 @dataclass(frozen=True)
+class ExplainContext:
+    """What a candidate's ``explain`` callable gets besides the hypothesis and its fitted values.
+
+    Attributes
+    ----------
+    shifts : str
+        The system modes the finding moved most, as text (``'26.61 -> 30.20 Hz, ...'``; empty if none).
+    new_modes_hz : tuple of float
+        System modes (Hz, < 60 Hz) the finding added.
+    where : str
+        The located sensors, strongest first, as text.
+    """
+
+    shifts: str = ""
+    new_modes_hz: tuple = ()
+    where: str = ""
+
+
+@dataclass(frozen=True)
 class RigCandidate:
     """A registered candidate: ``factory(ctx) -> list of Hypothesis`` for catalogue entry ``physics``."""
 
@@ -123,6 +146,8 @@ class RigCandidate:
     kind: str = "linear"
     needs_level_dependence: bool = False
     description: str = ""
+    #: ``explain(h, values, ctx: ExplainContext) -> str`` (None: the report lists the fitted values)
+    explain: Callable | None = None
 
 
 #: physics name -> RigCandidate (built-ins and user registrations), in registration order
@@ -136,6 +161,7 @@ def register_rig_candidate(
     kind: str = "linear",
     needs_level_dependence: bool = False,
     description: str = "",
+    explain: Callable | None = None,
     replace: bool = False,
 ) -> RigCandidate:
     """Register ``factory`` as the rig diagnosis's way to turn catalogue entry ``physics`` into hypotheses.
@@ -152,6 +178,10 @@ def register_rig_candidate(
     needs_level_dependence : bool
         Offer the candidate only when the mismatch grows with the drive level.
     description : str
+    explain : callable, optional
+        ``explain(h, values, ctx) -> str``: the finding's plain-language explanation from the
+        hypothesis ``h``, ``values`` (parameter name -> (fitted value, std)) and an
+        :class:`ExplainContext` (modes moved, sensors). Default: the fitted values listed.
     replace : bool
         Replace an existing registration of ``physics``.
 
@@ -162,7 +192,7 @@ def register_rig_candidate(
     Raises
     ------
     InputError
-        Unknown catalogue entry, a factory that is not callable, a bad ``kind``, or
+        Unknown catalogue entry, a factory or ``explain`` that is not callable, a bad ``kind``, or
         ``physics`` already registered without ``replace``.
     """
     from ..physics import CATALOGUE
@@ -174,6 +204,8 @@ def register_rig_candidate(
         )
     if not callable(factory):
         raise InputError(f"register_rig_candidate: factory {factory!r} of {physics!r} is not callable")
+    if explain is not None and not callable(explain):
+        raise InputError(f"register_rig_candidate: explain {explain!r} of {physics!r} is not callable")
     if kind not in _KINDS:
         raise InputError(f"register_rig_candidate: kind {kind!r} of {physics!r}; expected one of {_KINDS}")
     if physics in RIG_CANDIDATES and not replace:
@@ -181,7 +213,7 @@ def register_rig_candidate(
             f"register_rig_candidate: {physics!r} already has a rig candidate; pass replace=True to "
             "replace it"
         )
-    cand = RigCandidate(physics, factory, kind, bool(needs_level_dependence), description)
+    cand = RigCandidate(physics, factory, kind, bool(needs_level_dependence), description, explain)
     RIG_CANDIDATES[physics] = cand
     return cand
 
@@ -225,6 +257,7 @@ def _added_mass(ctx: CandidateContext):
                 sensors=tuple(here if is_sensor else near),
                 interface=None if is_sensor else loc.split(".", 1)[1],
                 screen_grid=(2.0, 6.0, 15.0, 40.0, 100.0),
+                neutral={"mass_kg": 0.0},
             )
         )
     return out
@@ -251,6 +284,7 @@ def _modal_damping(ctx: CandidateContext):
                 sensors=tuple(ctx.located),
                 fixed={"max_frequency_hz": MODAL_DAMPING_MAX_HZ},
                 screen_grid=(0.3, 0.6, 1.6, 3.0),
+                neutral={"factor": 1.0},
             )
         )
     return out
@@ -267,6 +301,7 @@ def _sensor_gain(ctx: CandidateContext):
             sensors=(ch,),
             carry="gains",
             screen_grid=(0.7, 0.85, 1.15, 1.4),
+            neutral={"gain": 1.0},
         )
         for ch in ctx.located
         if ("sensor_gain", ch) not in ctx.done
@@ -279,6 +314,7 @@ def _drive_linkage(ctx: CandidateContext):
     if ("drive_linkage_compliance", "drive_linkage") in ctx.done:
         return []
     ctx.say("linearising the drive-linkage hypothesis")
+    stiffest = ctx.entry("drive_linkage_compliance").parameter("stiffness_n_per_m").upper
     return [
         AffineHypothesis(
             "drive_linkage_compliance",
@@ -291,6 +327,8 @@ def _drive_linkage(ctx: CandidateContext):
             sensors=tuple(ctx.located),
             interface="piston_linkage",
             apply_location="drive_linkage",
+            # a rigid linkage: its mass then moves with the (displacement-driven) piston, its damper not
+            neutral={"stiffness_n_per_m": stiffest},
         )
     ]
 
@@ -322,6 +360,10 @@ JOINT_SCREEN = tuple(
 )
 
 
+#: a joint taken out of a joint fit: as stiff as the catalogue allows (the nominal joints are rigid)
+JOINT_RIGID = {"stiffness_n_per_m": 1e11, "rotational_stiffness_n_m_per_rad": 1e9}
+
+
 def _joint_stiffness(ctx: CandidateContext):
     from .rig_hypotheses import ConnectorHypothesis
 
@@ -343,6 +385,7 @@ def _joint_stiffness(ctx: CandidateContext):
                 # a joint may be soft in rotation and stiffer in translation than the data resolve
                 # (or the reverse), and add no damping: at least one parameter must be identifiable
                 may_vanish=("stiffness_n_per_m", "rotational_stiffness_n_m_per_rad", "damping_time_s"),
+                neutral=JOINT_RIGID,
             )
         )
     return out
@@ -382,6 +425,7 @@ def _bushing_stiffness(ctx: CandidateContext):
                 sensors=ctx.component_sensors("bracket_left"),
                 interface="bracket_left",
                 may_vanish=("shear_modulus_increase_pa", "compression_modulus_increase_pa", "damping_time_s"),
+                neutral={"shear_modulus_increase_pa": 0.0, "compression_modulus_increase_pa": 0.0},
             )
         ]
     except InputError as exc:  # the model has no rubber pad
@@ -471,35 +515,131 @@ def _joint_friction(ctx: CandidateContext):
     return out
 
 
+# --------------------------------------------------------------------------------------- explanations
+def _explain_added_mass(h, v, ctx: ExplainContext) -> str:
+    m, s = v["mass_kg"]
+    return (
+        f"A mass the model does not carry is attached near {h.location} ({h.component}): "
+        f"{m:.1f} +- {s:.1f} kg rigidly fixed there lowers the modes that move that point "
+        f"({ctx.shifts or 'small shifts'}); sensors {ctx.where} see it."
+    )
+
+
+def _explain_drive_linkage(h, v, ctx: ExplainContext) -> str:
+    k, _ = v["stiffness_n_per_m"]
+    m, _ = v["mass_kg"]
+    c, _ = v["damping_n_s_per_m"]
+    new = ctx.new_modes_hz
+    extra = f"; a new resonance at {', '.join(f'{b:.1f} Hz' for b in new)}" if new else ""
+    return (
+        f"The drive linkage is not rigid: {k:.3g} N/m with {c:.3g} N s/m and {m:.1f} kg at the pin put a "
+        f"linkage resonance into the system that every frame sensor sees{extra} ({ctx.shifts})."
+    )
+
+
+def _explain_bushing_stiffening(h, v, ctx: ExplainContext) -> str:
+    k3, s3 = v["cubic_stiffness_n_per_m3"]
+    return (
+        f"The left mudguard bracket's rubber bushing stiffens with amplitude: a cubic term of "
+        f"{k3:.3g} +- {s3:.2g} N/m^3 across the pad (z and x) explains a mismatch at {ctx.where} that grows "
+        f"with the drive level (the linear model fits the low level and misses the high one)."
+    )
+
+
+def _explain_joint_stiffness(h, v, ctx: ExplainContext) -> str:
+    kt, skt = v["stiffness_n_per_m"]
+    kr, skr = v["rotational_stiffness_n_m_per_rad"]
+    t, _ = v["damping_time_s"]
+    return (
+        f"The bolted joint {h.location} is not rigid: {kt:.3g} +- {skt:.2g} N/m in translation and "
+        f"{kr:.3g} +- {skr:.2g} N m/rad in rotation (damping time {t:.2g} s) move the modes that load "
+        f"it ({ctx.shifts or 'small shifts'}); the {h.component} sensors ({ctx.where}) see it."
+    )
+
+
+def _explain_bushing_stiffness(h, v, ctx: ExplainContext) -> str:
+    g, sg = v["shear_modulus_increase_pa"]
+    e, se = v["compression_modulus_increase_pa"]
+    t, _ = v["damping_time_s"]
+    return (
+        f"The left mudguard bracket's rubber pad is stiffer than the nominal rubber: shear modulus "
+        f"+{g:.3g} +- {sg:.2g} Pa, compression modulus +{e:.3g} +- {se:.2g} Pa (damping time {t:.2g} s) "
+        f"move the bracket's modes ({ctx.shifts or 'small shifts'}); sensors {ctx.where} see it."
+    )
+
+
+def _explain_joint_friction(h, v, ctx: ExplainContext) -> str:
+    k, _ = v["stuck_stiffness_n_per_m"]
+    f_slip, s_slip = v["slip_force_n"]
+    return (
+        f"The bolted joint {h.location} slips: a stuck contact of {k:.3g} N/m in its plane that slides "
+        f"above {f_slip:.3g} +- {s_slip:.2g} N softens and damps the modes that shear it as the drive "
+        f"level grows; sensors {ctx.where} see a mismatch that grows with level."
+    )
+
+
+def _explain_modal_damping(h, v, ctx: ExplainContext) -> str:
+    f, s = v["factor"]
+    return (
+        f"The modal damping of {h.location} is {f:.2f} +- {s:.2f} times what the model assumes: "
+        f"resonance peaks at {ctx.where} are {'lower' if f > 1 else 'higher'} than simulated; "
+        f"frequencies agree."
+    )
+
+
+def _explain_sensor_gain(h, v, ctx: ExplainContext) -> str:
+    g, s = v["gain"]
+    return (
+        f"Sensor {h.location} reads {100 * (g - 1):+.1f} +- {100 * s:.1f} % against the model at all "
+        f"frequencies while its neighbours agree: its sensitivity (calibration) is wrong, not the "
+        f"structure."
+    )
+
+
 register_rig_candidate(
-    "added_mass", _added_mass, description="a rigid point mass at every sensor point and frame interface"
+    "added_mass",
+    _added_mass,
+    description="a rigid point mass at every sensor point and frame interface",
+    explain=_explain_added_mass,
 )
 register_rig_candidate(
     "drive_linkage_compliance",
     _drive_linkage,
     description="the rig's drive linkage as a spring-damper with a mass (3 parameters)",
+    explain=_explain_drive_linkage,
 )
 register_rig_candidate(
     "joint_stiffness",
     _joint_stiffness,
     description="a Model-3 component joint as a 6-DOF spring-damper (translational and rotational "
     "stiffness, stiffness-proportional damping)",
+    explain=_explain_joint_stiffness,
 )
 register_rig_candidate(
     "bushing_stiffness",
     _bushing_stiffness,
     description="the left bracket's rubber pad stiffer (shear and compression modulus) and lossier",
+    explain=_explain_bushing_stiffness,
 )
 register_rig_candidate(
-    "modal_damping", _modal_damping, description="one flexible body's modal damping (modes < 200 Hz) scaled"
+    "modal_damping",
+    _modal_damping,
+    description="one flexible body's modal damping (modes < 200 Hz) scaled",
+    explain=_explain_modal_damping,
 )
-register_rig_candidate("sensor_gain", _sensor_gain, description="one located sensor's sensitivity")
+register_rig_candidate(
+    "sensor_gain",
+    _sensor_gain,
+    description="one located sensor's sensitivity",
+    explain=_explain_sensor_gain,
+)
 register_rig_candidate(
     "bushing_stiffening",
     _bushing,
     kind="simulated",
     needs_level_dependence=True,
     description="cubic hardening across the left bracket's rubber pad (simulated in time)",
+    explain=_explain_bushing_stiffening,
 )
 register_rig_candidate(
     "joint_friction",
@@ -508,4 +648,5 @@ register_rig_candidate(
     needs_level_dependence=True,
     description="micro-slip (Jenkins elements) in the contact plane of a Model-3 component joint "
     "(softening and damping growing with level; simulated in time)",
+    explain=_explain_joint_friction,
 )

@@ -36,6 +36,7 @@ from ..modal import LinearSystem
 
 __all__ = [
     "Hypothesis",
+    "HeldHypothesis",
     "ConnectorHypothesis",
     "LocalElementHypothesis",
     "NonlinearSystem",
@@ -98,6 +99,10 @@ class Hypothesis:
     may_vanish: tuple = ()
     #: screening grid of a one-parameter candidate (None: scored by a short fit)
     screen_grid: tuple | None = None
+    #: parameter values at which the candidate leaves the current model's response unchanged (a
+    #: joint at its stiffest, a damping factor of one); a joint fit tests each member against the
+    #: others refitted with it there (None: the member cannot be taken out)
+    neutral: dict | None = None
 
     def system(self, p) -> LinearSystem:  # pragma: no cover - abstract
         """Return the candidate's system at parameters ``p`` (a LinearSystem or NonlinearSystem)."""
@@ -121,6 +126,44 @@ class Hypothesis:
     @property
     def label(self) -> str:
         return f"{self.physics}@{self.location}"
+
+
+class HeldHypothesis(Hypothesis):
+    """Hypothesis ``h`` with the parameters ``held`` (index -> value) fixed: only the others are fitted."""
+
+    def __init__(self, h: Hypothesis, held: dict):
+        keep = np.array([j for j in range(len(h.names)) if j not in held], dtype=int)
+        super().__init__(
+            h.physics,
+            h.location,
+            tuple(h.names[j] for j in keep),
+            tuple(h.units[j] for j in keep),
+            np.asarray(h.lower, dtype=float)[keep],
+            np.asarray(h.upper, dtype=float)[keep],
+            np.asarray(h.start, dtype=float)[keep],
+            component=h.component,
+            sensors=h.sensors,
+            interface=h.interface,
+        )
+        self.h, self.keep = h, keep
+        self.held = {int(j): float(v) for j, v in held.items()}
+        self.base_gains = getattr(h, "base_gains", None)
+
+    def full(self, p) -> np.ndarray:
+        """Return ``h``'s full parameter vector at the free parameters ``p``."""
+        x = np.asarray(self.h.start, dtype=float).copy()
+        x[self.keep] = np.asarray(p, dtype=float)
+        for j, v in self.held.items():
+            x[j] = v
+        return x
+
+    def system(self, p):
+        """Return ``h``'s system with the held parameters at their values."""
+        return self.h.system(self.full(p))
+
+    def gains(self, p, channels):
+        """Return ``h``'s output gains with the held parameters at their values."""
+        return self.h.gains(self.full(p), channels)
 
 
 def _entry_fields(entry, start: dict):
@@ -492,9 +535,9 @@ class CompositeHypothesis(Hypothesis):
     other's modes, so neither explains much alone. All members' catalogue entries are applied
     to one model at their start values; each free parameter's derivative of the unprojected
     matrices is taken by one more build with that parameter stepped (the entries are affine
-    in their free parameters, the others held: a joint's damping time is held, which makes
-    its damping ``t diag(k)`` linear in ``k``). ``free`` names each member's fitted
-    parameters (default all).
+    in their free parameters, the others held; a connector's damping ``t diag(k)`` is
+    bilinear in its damping time and stiffnesses and taken exactly, see :meth:`system`).
+    ``free`` names each member's fitted parameters (default all).
     """
 
     def __init__(self, members, build: Callable, free: dict | None = None):
@@ -553,14 +596,32 @@ class CompositeHypothesis(Hypothesis):
                 )
             )
 
+        # members whose damping is their stiffness times a free damping time (ConnectorHypothesis):
+        # spec of the time -> specs of their stiffnesses (C is bilinear there, see system)
+        self.bilinear = {}
+        for i, h in enumerate(self.members):
+            if isinstance(h, ConnectorHypothesis) and (i, h.names[h.damping_index]) in specs:
+                j_t = specs.index((i, h.names[h.damping_index]))
+                if self.p0[j_t] > 0:
+                    self.bilinear[j_t] = [specs.index((i, n)) for n in h.stiff_names if (i, n) in specs]
+
     def system(self, p):
-        """Return the constrained system with every member at its part of ``p``."""
-        dp = np.asarray(p, dtype=float) - self.p0
+        """Return the constrained system with every member at its part of ``p``.
+
+        Affine in every parameter, except a connector member's damping with a free damping time
+        ``t``: ``C = t sum_i k_i D_i`` is bilinear, so its change is taken exactly as
+        ``(t - t0) dC/dt + (t / t0) sum_i (k_i - k_i0) dC/dk_i`` (``dC/dk_i = t0 D_i`` at the start).
+        """
+        p = np.asarray(p, dtype=float)
+        dp = p - self.p0
+        c_scale = np.ones(p.size)
+        for j_t, stiff in self.bilinear.items():
+            c_scale[stiff] = p[j_t] / self.p0[j_t]
         m, c, k = self.base.full_mass.copy(), self.base.full_damping.copy(), self.base.full_stiffness.copy()
-        for v, (d_m, d_c, d_k) in zip(dp, self.d, strict=True):
+        for v, s_c, (d_m, d_c, d_k) in zip(dp, c_scale, self.d, strict=True):
             if v != 0.0:
                 m += v * d_m
-                c += v * d_c
+                c += s_c * v * d_c
                 k += v * d_k
         return project(m, c, k, self.base)
 

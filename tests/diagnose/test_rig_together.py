@@ -1,0 +1,263 @@
+"""Joint fits on the rig path: the composite's bilinear damping, members judged one by one, the
+level-dependent share that no linear error disturbs, explanations from the registry."""
+
+from __future__ import annotations
+
+import sys
+from pathlib import Path
+
+import numpy as np
+import pytest
+
+sys.path.insert(0, str(Path(__file__).resolve().parents[1]))
+sys.path.insert(0, str(Path(__file__).resolve().parent))
+
+
+@pytest.fixture(scope="module")
+def model3():
+    pytest.importorskip("exudyn")
+    from rig_fixtures import MODEL3_SENSORS, mini_model3_bodies
+
+    from exudyn_study.model import build_model_from_bodies
+    from exudyn_study.rig_cli import parse_damping
+
+    bodies = mini_model3_bodies()
+
+    def build():
+        return build_model_from_bodies(
+            bodies, 3, damping=parse_damping("constant-2"), sensors=MODEL3_SENSORS, exudyn_mesh="used"
+        )
+
+    return build
+
+
+JOINTS = ("tank_left.tank_left_front", "tank_right.tank_right_front")
+START = {"stiffness_n_per_m": 1e8, "rotational_stiffness_n_m_per_rad": 1e6, "damping_time_s": 1e-4}
+
+
+def _modes(system):
+    from exudyn_study.simulate import _state_space
+
+    lam = np.linalg.eigvals(_state_space(system)[0])
+    lam = lam[(lam.imag > 0) & (np.abs(lam) < 2 * np.pi * 200)]
+    order = np.argsort(np.abs(lam))
+    return np.abs(lam[order]) / (2 * np.pi), -lam.real[order] / np.abs(lam[order])
+
+
+def test_joint_fit_takes_a_free_damping_time_exactly(model3):
+    """Two joints fitted together with their damping times free: at stiffnesses and damping times far from
+    the start (damping = time x stiffness, bilinear) the composite has the system modes and damping ratios
+    of a fresh build with both joints at those values. Taken affine (the product term dropped) the damping
+    ratios are off by far more than the tolerance."""
+    from exudyn_study.diagnose.rig_hypotheses import CompositeHypothesis, ConnectorHypothesis, model_system
+    from exudyn_study.physics import entry
+
+    members = [
+        ConnectorHypothesis("joint_stiffness", key, entry("joint_stiffness"), model3, dict(START))
+        for key in JOINTS
+    ]
+    comp = CompositeHypothesis(members, model3)
+    assert len(comp.bilinear) == 2  # each joint's damping time scales its stiffness derivatives
+    values = {
+        JOINTS[0]: {
+            "stiffness_n_per_m": 3e6,
+            "rotational_stiffness_n_m_per_rad": 4e4,
+            "damping_time_s": 2e-3,
+        },
+        JOINTS[1]: {
+            "stiffness_n_per_m": 1e7,
+            "rotational_stiffness_n_m_per_rad": 2e5,
+            "damping_time_s": 6e-4,
+        },
+    }
+    p = np.array([values[JOINTS[i]][n] for i, n in comp.specs])
+    model = model3()
+    for key in JOINTS:
+        entry("joint_stiffness").apply(model, key, **values[key])
+    (f_got, z_got), (f_ref, z_ref) = _modes(comp.system(p)), _modes(model_system(model))
+    np.testing.assert_allclose(f_got, f_ref, rtol=1e-5)
+    np.testing.assert_allclose(z_got, z_ref, rtol=2e-2, atol=1e-5)
+
+    comp.bilinear = {}  # the affine interpolation the joint fit used before
+    f_affine, z_affine = _modes(comp.system(p))
+    # (modes lost to overdamping, or damping ratios far off)
+    assert f_affine.size != f_ref.size or np.max(np.abs(z_affine - z_ref)) > 10 * 2e-2 * float(np.max(z_ref))
+
+
+def test_a_held_hypothesis_fits_only_the_others():
+    """HeldHypothesis: the held parameters stay at their values, the free ones come from ``p``."""
+    from exudyn_study.diagnose.rig_hypotheses import HeldHypothesis, Hypothesis
+
+    class Probe(Hypothesis):
+        def system(self, p):
+            return tuple(p)
+
+    h = Probe(
+        "x", "here", ("a", "b", "c"), ("1", "1", "1"), np.zeros(3), np.full(3, 10.0), np.array([1.0, 2, 3])
+    )
+    held = HeldHypothesis(h, {1: 7.0})
+    assert held.names == ("a", "c")
+    np.testing.assert_array_equal(held.start, [1.0, 3.0])
+    assert held.system([4.0, 5.0]) == (4.0, 7.0, 5.0)
+
+
+def test_the_level_dependent_share_is_blind_to_linear_model_errors():
+    """One drive at 50 % and 100 % with a cubic channel: a model whose linear part is wrong (here 1.5x
+    the truth's) leaves exactly the measured level-dependent share, as a linear model with the right
+    linear part does; a model with the right cubic term leaves nothing."""
+    from test_rig_level import _pair
+
+    from exudyn_study.diagnose.rig import _DistortionEvaluator, _level_pair
+
+    cubic = 0.02
+    lo, hi, lin = _pair(cubic)
+    pair = _level_pair([hi, lo])
+    assert pair is not None and pair[1] is lo and pair[2] is hi and pair[0] == pytest.approx(2.0)
+    ev = _DistortionEvaluator(pair, ("A", "B", "C", "D"), pad_s=4.0)
+
+    def responses(linear_factor, e):
+        out = []
+        for level in (0.5, 1.0):
+            y = lin * level * linear_factor
+            y[2] = y[2] + e * (lin[2] * level) ** 3
+            out.append(y)
+        return out
+
+    residuals = {}
+    for name, (factor, e) in {
+        "right linear": (1.0, 0.0),
+        "wrong linear": (1.5, 0.0),
+        "cubic": (1.0, cubic),
+        "cubic, wrong linear": (1.5, cubic),
+    }.items():
+        ev.ev.simulate_exact = lambda system, gains=None, f=factor, e=e: responses(f, e)
+        residuals[name] = ev.residual_vector(None)
+    r0 = residuals["right linear"]
+    assert float(r0 @ r0) > 0
+    np.testing.assert_allclose(residuals["wrong linear"], r0, atol=1e-12 * np.abs(r0).max())
+    assert np.abs(residuals["cubic"]).max() < 1e-9 * np.abs(r0).max()
+    # the cubic's share itself is computed on the truth's response at the pad, so a linear error there
+    # scales it (first order): still far smaller than the share
+    assert np.abs(residuals["cubic, wrong linear"]).max() < np.abs(r0).max()
+
+
+def test_a_registered_explain_callable_writes_the_finding_text():
+    """A candidate registered with ``explain`` gets its text from it; without, the values are listed."""
+    from exudyn_study.diagnose.rig import _explain
+    from exudyn_study.diagnose.rig_candidates import (
+        RIG_CANDIDATES,
+        ExplainContext,
+        register_rig_candidate,
+    )
+    from exudyn_study.diagnose.rig_hypotheses import Hypothesis
+    from exudyn_study.errors import InputError
+
+    class Fixed(Hypothesis):
+        def system(self, p):
+            return None
+
+    seen = []
+
+    def explain(h, values, ctx):
+        seen.append(ctx)
+        return f"{h.location}: {values['mass_kg'][0]:.1f} kg"
+
+    h = Fixed("added_mass", "ARHBZ", ("mass_kg",), ("kg",), np.zeros(1), np.ones(1), np.ones(1))
+    original = RIG_CANDIDATES["added_mass"]
+    import exudyn_study.diagnose.rig as rig
+
+    rig._shifted_modes, shifted = (lambda a, b: ([(10.0, 9.0)], [])), rig._shifted_modes
+    try:
+        register_rig_candidate("added_mass", original.factory, explain=explain, replace=True)
+        assert _explain(h, [3.25], [0.1], None, None, ["ARHBZ"]) == "ARHBZ: 3.2 kg"
+        assert isinstance(seen[0], ExplainContext) and "10.00 -> 9.00 Hz" in seen[0].shifts
+        register_rig_candidate("added_mass", original.factory, replace=True)
+        assert (
+            _explain(h, [3.25], [0.1], None, None, ["ARHBZ"])
+            == "added_mass at ARHBZ: mass_kg = 3.25 +- 0.1 (10.00 -> 9.00 Hz)."
+        )
+        with pytest.raises(InputError, match="explain .* is not callable"):
+            register_rig_candidate("added_mass", original.factory, explain="text", replace=True)
+    finally:
+        rig._shifted_modes = shifted
+        RIG_CANDIDATES["added_mass"] = original  # same place in the registry's order
+    assert RIG_CANDIDATES["added_mass"].explain is not None
+
+
+def test_a_joint_fit_keeps_the_member_that_pays_and_drops_the_one_that_does_not(model3):
+    """The truth has one soft tank mount (left front); a joint fit of it with a joint that is rigid in the
+    truth (right front): taken out with the other refitted, the true mount costs most of the held-out
+    error, the rigid one nothing, so the first is kept and the second rejected ('does not pay')."""
+    from rig_fixtures import MODEL3_SENSORS, mini_model3_bodies
+
+    from exudyn_study.diagnose import rig
+    from exudyn_study.diagnose.rig_candidates import JOINT_RIGID
+    from exudyn_study.diagnose.rig_compare import prepare, summary_error
+    from exudyn_study.diagnose.rig_hypotheses import ConnectorHypothesis, model_system
+    from exudyn_study.physics import entry
+    from exudyn_study.virtual_rig import Augment, Scenario, virtual_recording
+
+    truth = {"stiffness_n_per_m": 3e5, "rotational_stiffness_n_m_per_rad": 3e4, "damping_time_s": 1e-4}
+    sc = Scenario(
+        "mini3",
+        "test",
+        variant=3,
+        damping="constant-2",
+        augmentations=(Augment("joint_stiffness", JOINTS[0], truth),),
+    ).with_seed(5)
+    bodies = mini_model3_bodies()
+    recs = [
+        virtual_recording(sc, signal, 12.0, bodies=bodies, sensors=MODEL3_SENSORS)
+        for signal in ("white-noise", "test")
+    ]
+    lin0 = model_system(model3())
+    names = tuple(lin0.sensor_names)
+    train, hold = (prepare(r, names, n) for r, n in zip(recs, ("train", "hold"), strict=True))
+    pad = rig._decay_time(lin0)
+    ev_spectral = rig._SpectralEvaluator([train], names)
+    ev_train = rig._Evaluator([train], names, pad, exact=True)
+    ev_hold = rig._Evaluator([hold], names, pad, exact=True)
+    start = {"stiffness_n_per_m": 1e6, "rotational_stiffness_n_m_per_rad": 1e5, "damping_time_s": 1e-4}
+    hyps = [
+        ConnectorHypothesis(
+            "joint_stiffness",
+            key,
+            entry("joint_stiffness"),
+            model3,
+            dict(start),
+            component=key.split(".")[0],
+            interface=key.split(".")[1],
+            neutral=JOINT_RIGID,
+            may_vanish=tuple(start),
+        )
+        for key in JOINTS
+    ]
+    st = rig.RigDiagnosisSettings()
+    r0 = ev_spectral.residual_vector(lin0)
+    hold0 = float(np.mean([summary_error(e) for e in ev_hold.errors(ev_hold.simulate_exact(lin0))]))
+    meta = {"candidates": []}
+    ok = rig._fit_together(
+        hyps,
+        [0.5, 0.4],
+        model3,
+        ev_spectral,
+        ev_train,
+        ev_hold,
+        hold0,
+        train.channels,
+        [train],
+        None,
+        float(r0 @ r0),
+        st,
+        lambda text: None,
+        meta,
+        0,
+    )
+    verdict = {c["location"]: c for c in meta["candidates"]}
+    assert verdict[JOINTS[0]]["member"]["pays"], verdict
+    assert verdict[JOINTS[0]]["member"]["holdout_gain"] > 0.3
+    assert not verdict[JOINTS[1]]["member"]["pays"], verdict
+    assert verdict[JOINTS[1]]["rejected"] == "does not pay for itself in the joint fit"
+    assert [f["h"].location for f in ok] == [JOINTS[0]]
+    assert ok[0]["holdout_error"] < 0.5 * hold0
+    assert ok[0]["p"][0] == pytest.approx(truth["stiffness_n_per_m"], rel=0.3)
