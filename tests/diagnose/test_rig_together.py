@@ -242,8 +242,8 @@ def test_a_joint_fit_keeps_the_member_that_pays_and_drops_the_one_that_does_not(
         model3,
         ev_spectral,
         ev_train,
-        ev_hold,
-        hold0,
+        rig._Evaluator([hold], names, pad),  # the members are judged on the convolution
+        lin0,
         train.channels,
         [train],
         None,
