@@ -3,9 +3,26 @@
 The virtual rig plays the ``thesis`` scenario (compliant tank and bracket joints, the
 compliant drive linkage, the left pad's cubic hardening, banded damping) into white
 noise, the test signal at 50 % and at 100 %. The diagnosis gets only the recording files
-and the nominal model (Model 3 with the scenario's damping): it trains on white noise +
-test at 50 % and holds out the test signal at 100 %. Only this script reads the truth
-file, to print fitted against true parameters.
+and the nominal model (Model 3 with the scenario's damping), never the truth; only this
+script reads the truth file, to print fitted against true parameters.
+
+Protocol (``--protocol``):
+
+- ``levels`` (default): train on the test signal at 50 %, 100 % and 300 %, hold out the
+  white noise (another signal: another spectrum and another realisation) and the test
+  signal at 200 % (another excitation level). Several levels of one drive are then inside
+  the training data, so the level-dependent (nonlinear) share of the response,
+  ``y_300 - 6 y_50``, is known model-free there and the nonlinear candidates are fitted on
+  it; the linear findings are proven on a signal they were not fitted to, a nonlinear one
+  on a level it was not fitted to. (The issue allows "held-out recordings (another signal
+  or another excitation level)".) Why 300 %: the pad's cubic hardening is Section 7.4's
+  "shows with the stronger test signals"; between 50 % and 100 % the thesis scenario's
+  level-dependent share at the left bracket's sensors (0.15-0.3 %) is at the noise floor
+  of ``y_100 - 2 y_50`` (median over the sensors 0.24 %), so a model-free fit there has
+  nothing to fit. The cubic share grows as the level squared; the noise share does not.
+- ``original``: train on white noise + the test signal at 50 %, hold out the test signal
+  at 100 % (the blind benchmark's protocol). The level pair straddles training and held-out
+  data, so no nonlinear share can be fitted inside the training data.
 
 Printed: the findings (physics, location, level dependence, fitted vs truth parameters),
 the held-out error before and after, the relative pseudo damage at the z sensors before
@@ -14,7 +31,18 @@ unexplained, the wall time and the machine load. Acceptance: the linkage complia
 the bushing nonlinearity found; the pseudo damage moves toward 100 %; one diagnosis under
 10 minutes.
 
-Run: ``python3 benchmarks/bench_diagnose_thesis.py [--out DIR] [--recordings DIR] [--duration S]``
+Result (protocol ``levels``, 60 s recordings, ``--time-budget 1500`` at load 5.7-6.3): 671 s, two
+joint-fit rounds; the linkage (1.49e7 N/m, truth 1.2e7; 230 kg, truth 20 kg: not credible), the
+four tank mounts, the right bracket's joint and the pad found (all in the truth) and a joint at
+the left bracket that the truth does not have (it pays 2.3 % of the held-out error: it stands in
+for the pad's banded damping); held-out error 6.27/4.52 -> 0.78/0.79; relative pseudo damage at
+the 21 z sensors median 3.3e6 % -> 64 % (23-370 %), 20/21 closer to 100 %. The pad's cubic
+hardening is not found: the truth's 5e12 N/m^3 leaves the left bracket's H1 unchanged between
+50 % and 300 % (16.36 Hz peak, magnitude within 1e-4), its level-dependent share there
+(0.3-0.5 %) is at the noise floor.
+
+Run: ``python3 benchmarks/bench_diagnose_thesis.py [--out DIR] [--recordings DIR] [--duration S]
+[--protocol levels|original] [--time-budget S]``
 (``--recordings`` reuses recordings written by an earlier run). Results: ``DIR/thesis_diagnosis.json``.
 """
 
@@ -31,6 +59,8 @@ from pathlib import Path
 import numpy as np
 
 SIGNALS = ("white-noise", "test-50", "test")
+#: the test signal at these further drive levels (protocol ``levels``)
+LEVELS = (2.0, 3.0)
 
 
 def _match(truth_augs, finding) -> dict | None:
@@ -63,7 +93,7 @@ def _load() -> str:
 
 def main(argv=None) -> int:
     from exudyn_study.atomic import write_text_atomic
-    from exudyn_study.diagnose.rig import diagnose_rig
+    from exudyn_study.diagnose.rig import RigDiagnosisSettings, diagnose_rig
     from exudyn_study.virtual_rig import run_virtual_test, scenario, truth_name
     from exudyn_study.virtual_rig.run import recording_name
 
@@ -71,20 +101,57 @@ def main(argv=None) -> int:
     ap.add_argument("--out", default=None, help="directory for the results (default: a temporary one)")
     ap.add_argument("--recordings", default=None, help="reuse the thesis recordings in this directory")
     ap.add_argument("--duration", type=float, default=60.0, help="seconds per recording")
+    ap.add_argument(
+        "--time-budget",
+        type=float,
+        default=None,
+        help="the diagnosis's time budget in s (default RigDiagnosisSettings.time_budget_s, 540 s: one "
+        "diagnosis under 10 min on an unloaded machine; give more on a loaded one and report the load)",
+    )
+    ap.add_argument(
+        "--protocol",
+        choices=("levels", "original"),
+        default="levels",
+        help="levels: train test at 50/100/300 %%, hold out white noise and test at 200 %%; original: train "
+        "white noise + test-50, hold out test (see the module docstring)",
+    )
     args = ap.parse_args(argv)
     out_dir = Path(args.out or tempfile.mkdtemp(prefix="bench_diagnose_thesis_"))
     out_dir.mkdir(parents=True, exist_ok=True)
     rec_dir = Path(args.recordings) if args.recordings else out_dir
     sc = scenario("thesis")
     paths = [rec_dir / recording_name(sc.name, s) for s in SIGNALS]
+    more = (
+        [rec_dir / recording_name(sc.name, "test", lv) for lv in LEVELS] if args.protocol == "levels" else []
+    )
     t0 = time.perf_counter()
     if not all(p.exists() for p in paths) or not (rec_dir / truth_name(sc.name)).exists():
         paths = run_virtual_test(sc, list(SIGNALS), rec_dir, duration_s=args.duration)
+    if not all(p.exists() for p in more):
+        more = run_virtual_test(sc, ["test"], rec_dir, duration_s=args.duration, levels=LEVELS)
+    paths = paths + more
     t_rec = time.perf_counter() - t0
     print(f"recordings: {[p.name for p in paths]} ({t_rec:.0f} s); load {_load()}", flush=True)
 
     t0 = time.perf_counter()
-    d = diagnose_rig(sc.variant, paths[:2], paths[2:], damping=sc.damping, progress=lambda t: print("  " + t))
+    by_signal = dict(zip(SIGNALS + tuple(f"test-L{lv:g}" for lv in LEVELS)[: len(paths)], paths, strict=True))
+    if args.protocol == "levels":
+        train = [by_signal["test-50"], by_signal["test"], by_signal["test-L3"]]
+        holdout = [by_signal["white-noise"], by_signal["test-L2"]]
+    else:
+        train, holdout = [by_signal["white-noise"], by_signal["test-50"]], [by_signal["test"]]
+    print(f"protocol {args.protocol}: train {[p.name for p in train]}, hold out {[p.name for p in holdout]}")
+    st = RigDiagnosisSettings()
+    if args.time_budget is not None:
+        st.time_budget_s = float(args.time_budget)
+    d = diagnose_rig(
+        sc.variant,
+        train,
+        holdout,
+        damping=sc.damping,
+        progress=lambda t: print("  " + t, flush=True),
+        settings=st,
+    )
     wall = time.perf_counter() - t0
     truth = json.loads((rec_dir / truth_name(sc.name)).read_text())
     augs = truth["augmentations"]
@@ -166,6 +233,8 @@ def main(argv=None) -> int:
         "pseudo_damage_summary": summary,
         "candidates": d.metadata.get("candidates"),
         "rounds": d.metadata.get("rounds"),
+        "protocol": args.protocol,
+        "time_budget_s": st.time_budget_s,
         "wall_diagnosis_s": wall,
         "load": _load(),
         "acceptance": accept,
