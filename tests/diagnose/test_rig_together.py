@@ -261,3 +261,51 @@ def test_a_joint_fit_keeps_the_member_that_pays_and_drops_the_one_that_does_not(
     assert [f["h"].location for f in ok] == [JOINTS[0]]
     assert ok[0]["holdout_error"] < 0.5 * hold0
     assert ok[0]["p"][0] == pytest.approx(truth["stiffness_n_per_m"], rel=0.3)
+
+
+def test_the_pad_hardening_is_fitted_on_the_level_dependent_share_of_the_training_data():
+    """Mini Model 3 whose left pad hardens (cubic), trained on the test signal at 50 % and 100 % (one drive
+    at two levels inside the training data), white noise held out: no linear candidate explains the
+    mismatch, the cubic is fitted on ``y_100 - 2 y_50`` and found with its value."""
+    pytest.importorskip("exudyn")
+    from rig_fixtures import MODEL3_SENSORS, mini_model3_bodies
+
+    from exudyn_study.diagnose.rig import RigDiagnosisSettings, diagnose_rig
+    from exudyn_study.virtual_rig import Augment, Scenario, virtual_recording
+
+    k3 = 2e12
+    sc = Scenario(
+        "mini3-cubic",
+        "test",
+        variant=3,
+        damping="constant-2",
+        augmentations=(Augment("bushing_stiffening", "bracket_left", {"cubic_stiffness_n_per_m3": k3}),),
+    ).with_seed(3)
+    bodies = mini_model3_bodies()
+    recs = {
+        s: virtual_recording(sc, s, 16.0, bodies=bodies, sensors=MODEL3_SENSORS)
+        for s in ("test-50", "test", "white-noise")
+    }
+    st = RigDiagnosisSettings()
+    st.train_duration_s, st.screen_duration_s, st.train_duration_nonlinear_s, st.max_findings = (
+        12.0,
+        8.0,
+        12.0,
+        1,
+    )
+    d = diagnose_rig(
+        3,
+        [recs["test-50"], recs["test"]],
+        [recs["white-noise"]],
+        damping="constant-2",
+        bodies=bodies,
+        sensors=MODEL3_SENSORS,
+        settings=st,
+    )
+    assert d.findings, d.unexplained
+    f = d.findings[0]
+    assert f.physics == "bushing_stiffening", [c for c in d.metadata["candidates"]]
+    fitted = [c for c in d.metadata["candidates"] if c.get("fitted_on") == "level-dependent share"]
+    assert fitted and fitted[0]["rejected"] is None
+    assert f.parameters["cubic_stiffness_n_per_m3"]["value"] == pytest.approx(k3, rel=0.3)
+    assert f.fit["holdout_after"] <= f.fit["holdout_before"]
