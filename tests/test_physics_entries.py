@@ -25,7 +25,7 @@ from rig_fixtures import FRAME_SENSORS, MODEL3_SENSORS, mini_bodies, mini_model3
 TWO_PI = 2 * math.pi
 RATE_HZ = 1000.0
 NEW = ("joint_stiffness", "joint_friction", "bushing_stiffening", "sloshing", "modal_damping", "sensor_gain",
-       "bushing_stiffness")
+       "bushing_stiffness", "rear_support_compliance")
 
 
 @pytest.fixture(scope="module", autouse=True)
@@ -212,6 +212,37 @@ def test_joint_stiffness_lowers_the_modes_that_load_the_joint_by_the_rayleigh_es
     quiet = band & (predicted > -1e-5)  # modes that hardly load the joint (frame, other components)
     assert big.sum() >= 4 and quiet.sum() >= 5
     np.testing.assert_allclose(shift[band], predicted[band], rtol=0.1, atol=2e-6)
+
+
+def test_joint_stiffness_rotational_damping_factor_scales_the_damping_of_the_rocking_modes(bodies3):
+    """C = t (K_t + f K_r): on an otherwise undamped model each mode's damping ratio is, to first order,
+    ``zeta_t + f zeta_r`` (translation's and rotation's shares): f = 0, 1, 3 lie on one line per mode, and
+    the default factor (1) is the joint damped alike in both."""
+    from exudyn_study import modal
+
+    def zeta(factor):
+        model = _model3(bodies3, damping=lambda f: np.zeros_like(np.asarray(f, dtype=float)))
+        params = {"stiffness_n_per_m": 2e7, "rotational_stiffness_n_m_per_rad": 2e5, "damping_time_s": 2e-4}
+        if factor is not None:
+            params["rotational_damping_factor"] = factor
+        entry("joint_stiffness").apply(model, "tank_left_front", **params)
+        modes = modal.system_modes(model, modal.linearize(model), max_frequency_hz=150.0)
+        return modes.frequency_hz, modes.damping_ratio
+
+    f0, z0 = zeta(0.0)
+    f1, z1 = zeta(1.0)
+    f3, z3 = zeta(3.0)
+    fd, zd = zeta(None)
+    np.testing.assert_allclose(zd, z1, rtol=1e-12)  # the default: the joint's old behaviour
+    np.testing.assert_allclose(f3, f0, rtol=2e-3)  # damping only: the frequencies stay (to O(zeta^2))
+    damped = z1 > 1e-4
+    assert damped.sum() >= 3
+    np.testing.assert_allclose(z3[damped], z0[damped] + 3.0 * (z1 - z0)[damped], rtol=0.02)
+    rocking = damped & (z1 - z0 > 0.5 * z1)  # modes damped mostly by the joint's rotation
+    shearing = damped & (z1 - z0 < 0.1 * z1)  # ... and by its translation: the factor leaves them
+    assert rocking.any() and shearing.any()
+    assert np.all(z3[rocking] > 2.0 * z1[rocking])
+    np.testing.assert_allclose(z3[shearing], z1[shearing], rtol=0.2)
 
 
 # --------------------------------------------------------------------------------------- joint_friction
@@ -500,6 +531,34 @@ def test_bushing_stiffness_raises_the_bracket_modes_by_the_pad_springs_energy(bo
         assert modes.damping_ratio[j] == pytest.approx(1e-3 * energy[k] / (2 * w0[k]), rel=0.15), f0[k]
 
 
+def test_bushing_stiffness_rocking_factors_scale_the_rocking_springs_only(bodies3, nominal3):
+    """The rocking factors multiply the bonded block's rocking stiffness about x and z (K[3, 3], K[5, 5]) and
+    nothing else; the bracket modes then move by the energy of that spring (first order, as above)."""
+    from exudyn_study import modal
+    from exudyn_study.physics.entries_structure import pad_spring_matrix, rubber_pad
+
+    model0, lin0 = nominal3
+    pad = rubber_pad(model0.bodies["bracket_left"].body)
+    g, e_c, fx, fz = 5e3, 2.5e4, 0.3, 3.0  # small: first order holds with the larger z rocking
+    k1 = pad_spring_matrix(pad, g, e_c)
+    k = pad_spring_matrix(pad, g, e_c, (fx, 1.0, fz))
+    np.testing.assert_allclose(np.diag(k), np.diag(k1) * [1, 1, 1, fx, 1, fz])
+    f0, phi0 = _undamped(lin0)
+    rel = (_face_motion(model0, lin0, "bracket_left", pad["outer"], pad["centre_m"], phi0)
+           - _face_motion(model0, lin0, "bracket_left", pad["inner"], pad["centre_m"], phi0))
+    predicted = np.einsum("im,ij,jm->m", rel, k, rel) / (TWO_PI * np.maximum(f0, 1e-9)) ** 2
+    model = _model3(bodies3)
+    entry("bushing_stiffness").apply(model, shear_modulus_increase_pa=g, compression_modulus_increase_pa=e_c,
+                                     rocking_factor_about_x=fx, rocking_factor_about_z=fz)
+    f1 = _undamped(modal.linearize(model))[0]
+    big = (f0 > 1.0) & (f0 < 150.0) & (predicted > 2.5e-4)
+    assert big.sum() >= 2
+    # 0.3: the face rotation fitted here and the rigid marker's (averaged nodes) differ for the deforming
+    # face; that shows in the one mode that rocks the pad about z most (+28 % there, the others within 6 %)
+    np.testing.assert_allclose((f1[big] / f0[big]) ** 2 - 1.0, predicted[big], rtol=0.3)
+    assert np.median(np.abs(((f1[big] / f0[big]) ** 2 - 1.0) / predicted[big] - 1.0)) < 0.06
+
+
 def test_bushing_stiffness_needs_the_rubber_pad(bodies1, bodies3):
     with pytest.raises(InputError, match=r"bushing_stiffness: no body of this model has the rubber region"):
         entry("bushing_stiffness").apply(_model1(bodies1))
@@ -508,3 +567,57 @@ def test_bushing_stiffness_needs_the_rubber_pad(bodies1, bodies3):
         entry("bushing_stiffness").apply(_model3(bodies3), "bracket_right")
     with pytest.raises(InputError, match=r"parameter compression_modulus_increase_pa = -1 Pa"):
         entry("bushing_stiffness").resolve(compression_modulus_increase_pa=-1)
+
+
+# ------------------------------------------------------------------------------- rear_support_compliance
+def _with_rear(bodies1, damping, k_z, c_y, tau):
+    model = _model1(bodies1, damping=damping)
+    applied = entry("rear_support_compliance").apply(model, "rear_left", vertical_stiffness_n_per_m=k_z,
+                                                     lateral_compliance_m_per_n=c_y, damping_time_s=tau)
+    assert applied.location == "rear_left" and set(applied.items) == {"joint", "spring"}
+    return model
+
+
+def test_rear_support_compliance_lowers_the_modes_that_load_the_support_by_the_rayleigh_estimate(bodies1):
+    """d(w^2) = -(lambda_z^2 / k_z + lambda_y^2 c_y) (first order; lambda the force of the rigid rear support
+    in the mass-normalised mode, c_y the lateral compliance); modes that do not load it stay;
+    zeta = t (lambda_z^2 / k_z + lambda_y^2 c_y) / (2 w) on an otherwise undamped model."""
+    from exudyn_study import modal
+
+    undamped = lambda f: np.zeros_like(np.asarray(f, dtype=float))  # noqa: E731
+    model0 = _model1(bodies1, damping=undamped)
+    lin0 = modal.linearize(model0)
+    f0, phi0 = _undamped(lin0)
+    w0 = TWO_PI * np.maximum(f0, 1e-9)
+    lam = _joint_reactions(model0, lin0, model0.rig.joints["foundation_rear_left"], phi0)
+    k_z, k_y, tau = 5e9, 2e10, 1e-4  # stiff: shifts below 0.1 %, where first order holds; tau omega << 1
+    energy = lam[2] ** 2 / k_z + lam[1] ** 2 / k_y  # the springs' strain energy (x 2) per mode
+    lin_x = modal.linearize(_with_rear(bodies1, undamped, k_z, 0.0, tau))
+    assert lin_x.size == lin0.size + 1  # zero lateral compliance: y stays a constraint
+    predicted = -energy / w0**2
+
+    model = _with_rear(bodies1, undamped, k_z, 1.0 / k_y, tau)
+    lin = modal.linearize(model)
+    assert lin.size == lin0.size + 2  # two released constraints (y, z)
+    f1 = _undamped(lin)[0][: f0.size]
+    band = (f0 > 1.0) & (f0 < 150.0)
+    shift = (f1 / np.where(f0 > 0, f0, 1.0)) ** 2 - 1.0
+    assert np.all(shift[band] <= 1e-9)  # a compliant support never stiffens
+    big = band & (predicted < -1e-4)  # vertical bending (52, 72, 127, 133 Hz) and a lateral mode (86 Hz)
+    quiet = band & (predicted > -2e-6)
+    assert big.sum() >= 3 and quiet.sum() >= 2
+    assert np.any(big & (lam[1] ** 2 / k_y > 0.5 * energy))  # a mode swinging the frame's rear sideways
+    np.testing.assert_allclose(shift[big], predicted[big], rtol=0.05)
+    np.testing.assert_allclose(shift[quiet], 0.0, atol=5e-6)
+    modes = modal.system_modes(model, lin, max_frequency_hz=150.0)
+    for j in np.flatnonzero(big):
+        i = int(np.argmin(np.abs(modes.frequency_hz - f1[j])))
+        assert modes.damping_ratio[i] == pytest.approx(tau * energy[j] / (2 * w0[j]), rel=0.1), f0[j]
+
+
+def test_rear_support_compliance_locations():
+    with pytest.raises(InputError, match=r"rear_support_compliance: location 'rear'; expected one of "
+                                         r"\['rear_left', 'rear_right'\]"):
+        entry("rear_support_compliance").apply(type("M", (), {"assembled": False})(), "rear")
+    with pytest.raises(InputError, match=r"parameter vertical_stiffness_n_per_m = 10 N/m"):
+        entry("rear_support_compliance").resolve(vertical_stiffness_n_per_m=10)

@@ -9,7 +9,8 @@ and the diagnosis (hypotheses) use the same catalogue; users can :func:`register
 >>> from exudyn_study.physics import entry, CATALOGUE
 >>> sorted(CATALOGUE)  # doctest: +NORMALIZE_WHITESPACE
 ['added_mass', 'bushing_stiffening', 'bushing_stiffness', 'drive_linkage_compliance',
- 'joint_friction', 'joint_stiffness', 'modal_damping', 'sensor_gain', 'sloshing']
+ 'joint_friction', 'joint_stiffness', 'modal_damping', 'rear_support_compliance', 'sensor_gain',
+ 'sloshing']
 >>> entry("added_mass").parameter("mass_kg").unit
 'kg'
 """
@@ -24,7 +25,7 @@ from .catalogue import (
     register,
     unregister,
 )
-from .entries import ADDED_MASS, DRIVE_LINKAGE_COMPLIANCE
+from .entries import ADDED_MASS, DRIVE_LINKAGE_COMPLIANCE, REAR_SUPPORT_COMPLIANCE
 from .entries_more import (
     BUSHING_STIFFENING,
     JOINT_FRICTION,
@@ -46,6 +47,7 @@ __all__ = [
     "unregister",
     "ADDED_MASS",
     "DRIVE_LINKAGE_COMPLIANCE",
+    "REAR_SUPPORT_COMPLIANCE",
     "JOINT_STIFFNESS",
     "JOINT_FRICTION",
     "BUSHING_STIFFENING",

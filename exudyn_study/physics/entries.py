@@ -3,7 +3,9 @@
 - ``added_mass``: a point mass rigidly attached at a sensor node or an interface patch;
 - ``drive_linkage_compliance``: compliance (and mass) between the piston and the linkage,
   the thesis's unexplained ~28 Hz resonance of the connection between cylinder and
-  chassis (Section 7.1).
+  chassis (Section 7.1);
+- ``rear_support_compliance``: the frame's rear attachment on the rear foundation is
+  compliant (spring-dampers instead of the rigid spherical joint: z, optionally x and y).
 """
 
 from __future__ import annotations
@@ -13,7 +15,7 @@ import numpy as np
 from ..errors import InputError
 from .catalogue import Parameter, PhysicsEntry, register
 
-__all__ = ["ADDED_MASS", "DRIVE_LINKAGE_COMPLIANCE", "location_point"]
+__all__ = ["ADDED_MASS", "DRIVE_LINKAGE_COMPLIANCE", "REAR_SUPPORT_COMPLIANCE", "location_point"]
 
 _EXPECTED = ("a sensor name of the model (e.g. 'ARFVZ') or an interface 'body.interface' "
              "(e.g. 'chassis.front_strut')")
@@ -181,4 +183,77 @@ still follows the drive statically (the spring carries the static load).
     add_items=_add_linkage_compliance,
     locations="None or 'drive_linkage' (the rig has one drive linkage)",
     check_location=_check_linkage_location,
+))
+
+
+_REAR_SIDES = ("rear_left", "rear_right")
+
+
+def _check_rear_location(model, location) -> str:
+    if location not in _REAR_SIDES:
+        raise InputError(f"rear_support_compliance: location {location!r}; expected one of "
+                         f"{list(_REAR_SIDES)} (the frame's rear attachments on the rear foundation)")
+    if f"foundation_{location}" not in model.rig.joints:
+        raise InputError(f"rear_support_compliance: the model's rig has no 'foundation_{location}' joint")
+    return location
+
+
+def _add_rear_support_compliance(model, location: str, params: dict) -> dict:
+    import exudyn.itemInterface as eii
+
+    mbs = model.mbs
+    joint = model.rig.joints[f"foundation_{location}"]
+    m_foundation, m_frame = (int(m) for m in mbs.GetObject(joint)["markerNumbers"])
+    compliance = (params["longitudinal_compliance_m_per_n"], params["lateral_compliance_m_per_n"])
+    # z becomes a spring; x and y too where their compliance is not zero (zero: they stay rigid)
+    mbs.SetObjectParameter(joint, "constrainedAxes", [int(v == 0.0) for v in compliance] + [0])
+    k = np.array([1.0 / v if v > 0 else 0.0 for v in compliance] + [params["vertical_stiffness_n_per_m"]])
+    c = params["damping_time_s"] * k
+    spring = mbs.AddObject(eii.ObjectConnectorCartesianSpringDamper(
+        name=f"rear_support_compliance:{location}", markerNumbers=[m_foundation, m_frame],
+        stiffness=k.tolist(), damping=c.tolist(),
+        visualization=eii.VObjectConnectorCartesianSpringDamper(show=False)))
+    return {"joint": int(joint), "spring": int(spring)}
+
+
+REAR_SUPPORT_COMPLIANCE = register(PhysicsEntry(
+    name="rear_support_compliance",
+    doc="""The frame's rear attachment on the rear foundation is compliant vertically.
+
+Physics: the nominal rig joins each rear attachment of the frame (``rear_left``,
+``rear_right``) to the flexible rear foundation by a spherical joint, rigid in all three
+translations (thesis Section 4.2: the frame may rotate about y there). The real load path
+from the frame's side member down to the floor has compliance the foundation body leaves
+out: the rear attachment bracket bolted to the side member's web, its bearing, the
+foundation's bolted base plate and its anchorage in the floor (the thesis modelled the rear
+foundation and attachment from tape measurements, Section 4.1). Here the joint's z
+constraint is released and a spring ``vertical_stiffness_n_per_m`` joins the same two
+points; along x and y the joint stays rigid unless ``longitudinal_compliance_m_per_n`` or
+``lateral_compliance_m_per_n`` is not zero, then that constraint is released too and a spring
+of the inverse stiffness joins them. Every spring has the viscous damping ``damping_time_s``
+times its stiffness (the bracket's bolted and bearing contacts dissipate).
+
+Signature: the modes that load the rear support vertically drop in frequency, to first
+order ``d(omega^2) = -lambda_z^2 / k`` (Rayleigh; ``lambda_z`` the vertical force the rigid
+support carries in the mass-normalised mode): the frame's vertical bending (about y) with
+the front held by the drive, seen by the frame's rear z sensors most; a soft support adds a
+mode in which the frame pitches about the drive points on it. Modes that do not load the
+support (the component modes) stay. A longitudinal or lateral compliance lowers, the same way
+(``-lambda_x^2 c_x``, ``-lambda_y^2 c_y``), the modes that move the frame's rear along x or y on
+the foundation (the frame's and components' fore-aft mode near 21 Hz, Table 1's "frame bending
+about z"). With ``damping_time_s > 0`` those modes gain ``zeta ~ damping_time_s * omega / 2``
+times the springs' share of their strain energy.
+""",
+    parameters=(
+        Parameter("vertical_stiffness_n_per_m", "N/m", 1e5, 1e10, 2e7,
+                  "vertical stiffness of the rear attachment (frame to foundation)"),
+        Parameter("longitudinal_compliance_m_per_n", "m/N", 0.0, 1e-5, 0.0,
+                  "longitudinal (x) compliance of the rear attachment (0: rigid)"),
+        Parameter("lateral_compliance_m_per_n", "m/N", 0.0, 1e-5, 0.0,
+                  "lateral (y) compliance of the rear attachment (0: rigid)"),
+        Parameter("damping_time_s", "s", 0.0, 1e-2, 1e-4, "stiffness-proportional damping time"),
+    ),
+    add_items=_add_rear_support_compliance,
+    locations=f"one of the frame's rear attachments {list(_REAR_SIDES)}",
+    check_location=_check_rear_location,
 ))

@@ -142,7 +142,8 @@ def _add_joint_stiffness(model, location: str, params: dict) -> dict:
     joint, m0, m1, kind = _joint_markers(model, location)
     k_t, k_r = params["stiffness_n_per_m"], params["rotational_stiffness_n_m_per_rad"]
     k = np.diag([k_t] * 3 + [k_r] * 3)
-    d = params["damping_time_s"] * k
+    tau = params["damping_time_s"]
+    d = np.diag([tau * k_t] * 3 + [tau * params["rotational_damping_factor"] * k_r] * 3)
     if "RigidBodySpringDamper" in kind:  # a bushing model: change the element
         mbs.SetObjectParameter(joint, "stiffness", k.tolist())
         mbs.SetObjectParameter(joint, "damping", d.tolist())
@@ -164,20 +165,30 @@ at the interface patches. A real bolted joint is compliant (contact, bolt stretc
 bending around the bolts). The fixed joint is released and a 6-DOF linear spring-damper
 joins the same two patch markers: translational ``stiffness_n_per_m`` and rotational
 ``rotational_stiffness_n_m_per_rad`` on the diagonal (global axes), damping
-``damping_time_s`` times the stiffness (stiffness-proportional, ``zeta ~ pi f t``). On a
-model built with bushings the bushing's values are replaced.
+``damping_time_s`` times the stiffness (stiffness-proportional, ``zeta ~ pi f t``), in the
+rotations ``rotational_damping_factor`` times that: a joint dissipates differently in
+translation (shear and compression of the clamped contact and the bolts) and in rotation
+(rocking of the clamped plates about the bolt pattern, where the contact opens and
+micro-slips at the patch edges); the default 1 damps both alike. On a model built with
+bushings the bushing's values are replaced.
 
 Signature: modes that load the joint drop in frequency, to first order
 ``d(omega^2) = -sum_j lambda_j^2 / k_j`` (Rayleigh; ``lambda_j`` the force or moment the rigid
 joint carries in the mass-normalised mode); mostly the component's modes; modes that do not
 load the joint (frame-only modes) barely move; the component's sensors (``ATV*``/``ATH*`` for
-a tank, ``ASV*``/``ASH*`` for a bracket) show the lowered resonances.
+a tank, ``ASV*``/``ASH*`` for a bracket) show the lowered resonances. The damping a mode gets is
+``zeta = (t k_t |delta_t|^2 + f t k_r |delta_r|^2) / (2 omega)`` (first order; ``delta`` the
+joint's relative translation and rotation in the mass-normalised mode, ``f`` the rotational
+factor): the factor scales the damping of the modes that rock the joint and leaves the modes
+that shear or compress it.
 """,
     parameters=(
         Parameter("stiffness_n_per_m", "N/m", 1e4, 1e11, 5e7, "translational joint stiffness (each axis)"),
         Parameter("rotational_stiffness_n_m_per_rad", "N m/rad", 1e2, 1e9, 5e5,
                   "rotational joint stiffness (each axis)"),
         Parameter("damping_time_s", "s", 0.0, 1e-2, 1e-4, "stiffness-proportional damping factor"),
+        Parameter("rotational_damping_factor", "1", 0.0, 100.0, 1.0,
+                  "damping time in the rotations / damping_time_s (rocking vs shear of the joint)"),
     ),
     add_items=_add_joint_stiffness,
     locations="a model-3 component joint 'component.interface' (e.g. 'tank_left.tank_left_front', "

@@ -51,14 +51,17 @@ def rubber_pad(body, region: str = _RUBBER_REGION) -> dict:
             "centre_m": 0.5 * (x.min(axis=0) + x.max(axis=0)), "inner": inner, "outer": outer}
 
 
-def pad_spring_matrix(pad: dict, shear_modulus_pa: float, compression_modulus_pa: float) -> np.ndarray:
+def pad_spring_matrix(pad: dict, shear_modulus_pa: float, compression_modulus_pa: float,
+                      rocking_factors=(1.0, 1.0, 1.0)) -> np.ndarray:
     """6 x 6 stiffness (N/m, N m/rad; translations then rotations about x, y, z) of a bonded pad.
 
     A thin block of thickness ``t`` and in-plane sides ``a``, ``b`` bonded between two rigid
     plates (Gent 2012, Ch. 9): shear ``G A / t`` along both in-plane axes, compression
     ``E_c A / t`` along the normal, torsion about the normal ``G J / t`` with
     ``J = A (a^2 + b^2) / 12`` and rocking about an in-plane axis ``E_c I / t`` with ``I`` the
-    area's second moment about that axis (``A s^2 / 12``, ``s`` the side across it).
+    area's second moment about that axis (``A s^2 / 12``, ``s`` the side across it), times
+    ``rocking_factors[axis]`` (the rocking modulus over the compression modulus about global
+    x, y, z; the normal's entry is unused).
     """
     n, t, area = pad["normal"], pad["thickness_m"], pad["area_m2"]
     ext = np.asarray(pad["extent_m"], dtype=float)
@@ -70,7 +73,7 @@ def pad_spring_matrix(pad: dict, shear_modulus_pa: float, compression_modulus_pa
         else:
             across = 3 - n - axis  # the in-plane side perpendicular to this rocking axis
             k[axis] = shear_modulus_pa * area / t
-            k[3 + axis] = compression_modulus_pa * area * ext[across] ** 2 / 12.0 / t
+            k[3 + axis] = rocking_factors[axis] * compression_modulus_pa * area * ext[across] ** 2 / 12.0 / t
     return np.diag(k)
 
 
@@ -96,7 +99,8 @@ def _add_bushing_stiffness(model, location, params: dict) -> dict:
     pad = rubber_pad(model.bodies[body_name].body)
     m_frame = _face_marker(model, body_name, pad["inner"], pad["centre_m"])
     m_bracket = _face_marker(model, body_name, pad["outer"], pad["centre_m"])
-    k = pad_spring_matrix(pad, params["shear_modulus_increase_pa"], params["compression_modulus_increase_pa"])
+    k = pad_spring_matrix(pad, params["shear_modulus_increase_pa"], params["compression_modulus_increase_pa"],
+                          (params["rocking_factor_about_x"], 1.0, params["rocking_factor_about_z"]))
     d = params["damping_time_s"] * k
     spring = model.mbs.AddObject(eii.ObjectConnectorRigidBodySpringDamper(
         name="bushing_stiffness:bracket_left", markerNumbers=[m_frame, m_bracket], stiffness=k.tolist(),
@@ -118,7 +122,14 @@ nodes of each face of the region ``'bracket_left_rubber'``, both at the pad's ce
 the stiffness of a bonded block (:func:`pad_spring_matrix`): shear
 ``shear_modulus_increase_pa * A / t`` along the two in-plane axes, compression
 ``compression_modulus_increase_pa * A / t`` along the normal, torsion and rocking from the
-bonded area's polar and axial second moments. The damping is stiffness-proportional,
+bonded area's polar and axial second moments. The rocking stiffness about x and about z
+is the bonded-block value times ``rocking_factor_about_x`` / ``rocking_factor_about_z``
+(default 1): a block tilted about an axis bulges less than one compressed evenly, so its
+apparent modulus in rocking is not its compression modulus, and it differs between the long
+(0.20 m along x) and the short (0.08 m along z) side (Gent 2012, Ch. 9: the shape-factor
+term of the tilting modulus is a third of the compression one's for a long strip); the
+pad's rocking about x carries the bracket's vertical (z) mode, about z its x mode. The
+factors are unused for the pad's normal (y, torsion). The damping is stiffness-proportional,
 ``damping_time_s * K`` (the rubber's loss: a mode carried by the pad gets
 ``zeta ~ damping_time_s * omega / 2`` of that spring's share of its strain energy).
 
@@ -134,6 +145,10 @@ frequency. The response is level-independent (linear).
         Parameter("compression_modulus_increase_pa", "Pa", 0.0, 1e9, 0.0,
                   "added compression modulus of the pad (normal and rocking)"),
         Parameter("damping_time_s", "s", 0.0, 1e-2, 0.0, "stiffness-proportional damping time of the spring"),
+        Parameter("rocking_factor_about_x", "1", 0.0, 10.0, 1.0,
+                  "rocking modulus / compression modulus of the added spring about x"),
+        Parameter("rocking_factor_about_z", "1", 0.0, 10.0, 1.0,
+                  "rocking modulus / compression modulus of the added spring about z"),
     ),
     add_items=_add_bushing_stiffness,
     locations="None or 'bracket_left' (the left mudguard bracket's rubber bushing)",

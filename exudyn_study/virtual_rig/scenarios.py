@@ -238,6 +238,14 @@ _SINGLE = (
         "rise from 13.5/26.7 to 16.3/30.0 Hz and their damping from 0.8/1.3 to 2.2/3.0 %.",
     ),
     (
+        "rear_support_compliance",
+        "rear_left",
+        {"vertical_stiffness_n_per_m": 1e7, "damping_time_s": 2e-4},
+        1,
+        "The frame's left rear attachment sits on a 1e7 N/m vertical spring instead of the rigid spherical "
+        "joint on the rear foundation.",
+    ),
+    (
         "modal_damping",
         "chassis",
         {"factor": 2.5},
