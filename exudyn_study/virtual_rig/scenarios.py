@@ -9,9 +9,9 @@ applied to it, and the measurement chain (servo drive and acquisition,
     truth = nominal Model 1 + measurement chain only (nothing is missing);
 ``thesis``
     the thesis's rig as we read it (Sections 5 and 7): Model 3 with compliant tank
-    mounts, the left mudguard bracket's stiffening rubber bushing, a compliant drive
-    linkage (the ~28 Hz resonance of Section 7.1) and per-body damping; its EMA gives
-    roughly Table 1 (see :data:`THESIS_TABLE1`);
+    mounts, the left mudguard bracket's stiffening rubber bushing, compliant rear supports
+    of the frame, a compliant drive linkage (the ~28 Hz resonance of Section 7.1) and
+    per-body damping; its EMA gives part of Table 1 (see :data:`THESIS_TABLE1`);
 one single-effect scenario per catalogue entry
     named after the entry, nominal model + that entry at a documented place.
 
