@@ -58,8 +58,8 @@ references: the same four rows (13.67 Hz / 1.49 %, 32.71 Hz / 5.87 %, 43.91 Hz /
 47.66 Hz / 0.50 %), 8/10 in frequency, no pole the truth lacks; the left bracket z is 34 %
 high in damping (15.72 Hz / 2.92 %). Seed 1, each reference: the
 same four rows, 7/10 in frequency, the 13.7-15.8 Hz pairing as with seed 0. (An extra 20.63 Hz
-pole of MPC 0.3 appears with one reference; the virtual test took 530-680 s of wall time on
-the shared 2-core machine at load 5-11.)
+pole of MPC 0.3 appears with one reference. The virtual test takes 39 s of wall time on the
+shared 2-core machine at load 1.5, 530-680 s at load 5-11.)
 The identified damping ratios carry the identification's own standard deviations of
 0.02-2.3 percentage points at 0.2 Hz resolution (seed 0), so a damping match within 10 % is
 partly luck. Before the rear supports and the refit (the earlier truth, seed 0, both
