@@ -74,6 +74,19 @@ def _contact_normal(model, key: str) -> int:
     return int(np.argmin(np.ptp(x, axis=0)))
 
 
+def require_super_element(handle, body_name: str, what: str) -> None:
+    """Refuse the constant-matrix body (``element='matrix'``) where an entry needs ``what``.
+
+    That element has no mesh nodes and no reduced damping matrix of its own (see
+    :func:`exudyn_study.model.linear_body.add_linear_matrix_body`).
+    """
+    from ..model.linear_body import MatrixBodyHandle
+
+    if isinstance(handle, MatrixBodyHandle):
+        raise InputError(f"body {body_name!r} is a constant-matrix element (element='matrix'), which has no "
+                         f"{what}: build the model with element='superelement' for this entry")
+
+
 def exudyn_mesh_nodes(model, body_name: str, nodes) -> list[int]:
     """Exudyn node indices of mesh ``nodes`` of a flexible body, adding them to the body if needed.
 
@@ -84,6 +97,7 @@ def exudyn_mesh_nodes(model, body_name: str, nodes) -> list[int]:
     Call before assembly.
     """
     handle = model.bodies[body_name]
+    require_super_element(handle, body_name, "markers on mesh nodes")
     nodes = [int(n) for n in nodes]
     node_map = handle.__dict__.get("mesh_node_map")
     if node_map is None:
@@ -465,6 +479,7 @@ def _add_modal_damping(model, location: str, params: dict) -> dict:
     if lo > hi:
         raise InputError(f"modal_damping: min_frequency_hz = {lo:g} Hz above max_frequency_hz = {hi:g} Hz")
     handle = model.bodies[location]
+    require_super_element(handle, location, "dampingMatrixReduced to scale")
     freq = np.asarray(handle.body.frequencies_hz, dtype=float)
     zeta = np.array(handle.damping_ratios, dtype=float)
     band = (freq >= lo) & (freq <= hi)
