@@ -171,12 +171,15 @@ def test_entries_needing_mesh_nodes_refuse_the_constant_matrix_element(bodies3):
     """The constant-matrix element has no mesh nodes and no reduced damping matrix: a clear error."""
     from exudyn_study.model import build_model_from_bodies
 
-    m3 = build_model_from_bodies(bodies3, 3, damping="constant-2", sensors=MODEL3_SENSORS, element="matrix")
-    with pytest.raises(InputError, match=r"body 'tank_left' is a constant-matrix element \(element='matrix'\), "
+    m3 = build_model_from_bodies(bodies3, 3, damping="constant-2", sensors=MODEL3_SENSORS,
+                                 element="matrix")
+    with pytest.raises(InputError, match=r"body 'tank_left' is a constant-matrix element "
+                                         r"\(element='matrix'\), "
                                          r"which has no markers on mesh nodes: build the model with "
                                          r"element='superelement'"):
         entry("sloshing").apply(m3, "tank_left")
-    with pytest.raises(InputError, match=r"body 'frame' is a constant-matrix element .* no dampingMatrixReduced"):
+    with pytest.raises(InputError,
+                       match=r"body 'frame' is a constant-matrix element .* no dampingMatrixReduced"):
         entry("modal_damping").apply(m3, "frame", factor=2.0)
 
 
