@@ -43,11 +43,24 @@ __all__ = [
     "interface_rigid_map",
     "interface_coordinate_transformation",
     "node_modal_map",
+    "small_rigid_motion",
     "marker_node_subset",
     "patch_is_rigid",
 ]
 
 log = logging.getLogger(__name__)
+
+
+def small_rigid_motion(positions_m: np.ndarray) -> np.ndarray:
+    """Displacements of points at ``positions_m`` (n, 3) per small rigid motion, shape (3 n, 6).
+
+    Columns: translation (x, y, z), then small rotation about the origin: ``u_i = t + theta x x_i``.
+    """
+    x = np.asarray(positions_m, dtype=float).reshape(-1, 3)
+    g = np.zeros((3 * x.shape[0], 6))
+    g[:, :3] = np.tile(np.eye(3), (x.shape[0], 1))
+    g[:, 3:] = -skew_columns(x.ravel())  # theta x x = -skew(x) theta
+    return g
 
 
 def rigid_body_basis(body: ReducedBody, ffrf: FFRFData, nodes=None) -> np.ndarray:
@@ -60,10 +73,7 @@ def rigid_body_basis(body: ReducedBody, ffrf: FFRFData, nodes=None) -> np.ndarra
     x = np.asarray(body.node_positions_m, dtype=float)
     if nodes is not None:
         x = x[np.asarray(nodes, dtype=int)]
-    n = x.shape[0]
-    basis = np.zeros((3 * n, 6))
-    basis[:, :3] = np.tile(np.eye(3), (n, 1))
-    basis[:, 3:] = -skew_columns(x.ravel())  # theta x x = -skew(x) theta
+    basis = small_rigid_motion(x)
     m = float(ffrf.mass)
     c = np.asarray(ffrf.center_of_mass, dtype=float)
     sc = np.array([[0.0, -c[2], c[1]], [c[2], 0.0, -c[0]], [-c[1], c[0], 0.0]])
@@ -215,9 +225,7 @@ def patch_is_rigid(body: ReducedBody, nodes, rtol: float = 1e-8) -> bool:
     rel = x - x.mean(axis=0)
     rows = (3 * nodes[:, None] + np.arange(3)).ravel()
     u = np.asarray(body.mode_basis)[rows]
-    g = np.zeros((3 * nodes.size, 6))
-    g[:, :3] = np.tile(np.eye(3), (nodes.size, 1))
-    g[:, 3:] = -skew_columns(rel.ravel())
+    g = small_rigid_motion(rel)
     coef = np.linalg.lstsq(g, u, rcond=None)[0]
     scale = np.linalg.norm(u)
     return bool(scale == 0.0 or np.linalg.norm(u - g @ coef) <= rtol * scale)
@@ -286,12 +294,8 @@ def interface_rigid_map(body: ReducedBody, ffrf: FFRFData, interface: str, rtol:
     nodes = np.asarray(body.interface_nodes[i], dtype=int)
     w = np.asarray(body.interface_weights[i], dtype=float)
     centre = weighted_center(body, interface)
-    rows = (3 * nodes[:, None] + np.arange(3)).ravel()
-    u = np.hstack([rigid_body_basis(body, ffrf, nodes), np.asarray(body.mode_basis)[rows]])
-    x = np.asarray(body.node_positions_m)[nodes] - centre
-    g = np.zeros((3 * nodes.size, 6))
-    g[:, :3] = np.tile(np.eye(3), (nodes.size, 1))
-    g[:, 3:] = -skew_columns(x.ravel())  # theta x x = -skew(x) theta
+    u = node_modal_map(body, ffrf, nodes)
+    g = small_rigid_motion(np.asarray(body.node_positions_m)[nodes] - centre)
     sw = np.sqrt(np.repeat(w / w.sum(), 3))[:, None]
     coef = np.linalg.lstsq(sw * g, sw * u, rcond=None)[0]
     scale = np.linalg.norm(u)

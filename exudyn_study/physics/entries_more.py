@@ -104,13 +104,11 @@ def exudyn_mesh_nodes(model, body_name: str, nodes) -> list[int]:
         return nodes
     missing = [n for n in dict.fromkeys(nodes) if n not in node_map]
     if missing:
-        from ..model.linear_body import rigid_body_basis
+        from ..model.linear_body import node_modal_map
 
         mbs, obj = model.mbs, handle.object_number
         data = model.body_data[body_name]
-        rows = (3 * np.asarray(missing)[:, None] + np.arange(3)).ravel()
-        extra = np.hstack([rigid_body_basis(data.body, data.ffrf, missing),
-                           np.asarray(data.body.mode_basis)[rows]])
+        extra = node_modal_map(data.body, data.ffrf, missing)
         basis = np.vstack([np.asarray(mbs.GetObjectParameter(obj, "modeBasis")), extra])
         ref = np.concatenate([np.asarray(mbs.GetObjectParameter(obj, "referencePositions")).ravel(),
                               np.asarray(data.body.node_positions_m)[missing].ravel()])
