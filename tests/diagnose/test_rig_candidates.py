@@ -157,24 +157,6 @@ def test_a_user_entry_registered_as_candidate_is_found_fitted_and_improves_held_
     assert f.fit["holdout_after"] < 0.5 * f.fit["holdout_before"]
 
 
-@pytest.fixture(scope="module")
-def model3():
-    pytest.importorskip("exudyn")
-    from rig_fixtures import MODEL3_SENSORS, mini_model3_bodies
-
-    from exudyn_study.model import build_model_from_bodies
-    from exudyn_study.rig_cli import parse_damping
-
-    bodies = mini_model3_bodies()
-
-    def build():
-        return build_model_from_bodies(
-            bodies, 3, damping=parse_damping("constant-2"), sensors=MODEL3_SENSORS, exudyn_mesh="used"
-        )
-
-    return build
-
-
 def _fresh(build, name, location, values):
     from exudyn_study.diagnose.rig_hypotheses import model_system
     from exudyn_study.physics import entry

@@ -13,24 +13,6 @@ sys.path.insert(0, str(Path(__file__).resolve().parents[1]))
 sys.path.insert(0, str(Path(__file__).resolve().parent))
 
 
-@pytest.fixture(scope="module")
-def model3():
-    pytest.importorskip("exudyn")
-    from rig_fixtures import MODEL3_SENSORS, mini_model3_bodies
-
-    from exudyn_study.model import build_model_from_bodies
-    from exudyn_study.rig_cli import parse_damping
-
-    bodies = mini_model3_bodies()
-
-    def build():
-        return build_model_from_bodies(
-            bodies, 3, damping=parse_damping("constant-2"), sensors=MODEL3_SENSORS, exudyn_mesh="used"
-        )
-
-    return build
-
-
 JOINTS = ("tank_left.tank_left_front", "tank_right.tank_right_front")
 START = {"stiffness_n_per_m": 1e8, "rotational_stiffness_n_m_per_rad": 1e6, "damping_time_s": 1e-4}
 
