@@ -11,10 +11,15 @@ the small-amplitude system, and register a :class:`LocalNonlinearity` on the mod
 where ``delta = direction . (x_b - x_a)`` is the relative displacement of two markers
 along a global direction. :func:`simulate_local_nonlinear` integrates the linearised,
 constrained model exactly between sub-steps (matrix exponential, the drive's cubic spline
-exact, the residual force held over a sub-step: one sub-step of delay) and evaluates the
-residual laws in between. This is the classical "linear structure with local
-nonlinearities" formulation; the sub-step (default 1/8 ms) keeps the delayed feedback
-accurate for local frequencies well below 1 kHz.
+exact) with the residual force held over each sub-step. A memoryless law (a state of None:
+the cubic) is evaluated at the sub-step's midpoint, predicted from the element's velocity,
+which makes the scheme second order (a force held at its start value lags by half a
+sub-step, a negative damper ``k_tangent h / 2`` that a stiff hardening spring feels: on the
+thesis pad at 300 % drive, 1/8 ms against 1/32 ms sub-steps differ by 7.5 % of the bracket's
+response held, by 0.06 % with the midpoint); a law with a state (friction) is evaluated at
+the sub-step's start (first order, its state advances once per sub-step). This is the
+classical "linear structure with local nonlinearities" formulation; the sub-step (default
+1/8 ms) keeps the feedback accurate for local frequencies well below 1 kHz.
 
 Force laws (:class:`ForceLaw`): :class:`CubicStiffening` (``k3 delta^3``),
 :class:`JenkinsFriction` (a spring in series with a Coulomb slider: stuck at small
@@ -232,9 +237,9 @@ def simulate_local_nonlinear(
         :func:`gather_vectors` of the elements.
     laws : sequence of ForceLaw
     substeps : int
-        Sub-steps per drive sample (the residual force is held over a sub-step); a divisor
-        or a multiple of ``drive.upsampling`` (the drive's fine intervals), so that the
-        drive's part is integrated exactly.
+        Sub-steps per drive sample (the residual force is held over a sub-step, see the
+        module docstring); a divisor or a multiple of ``drive.upsampling`` (the drive's fine
+        intervals), so that the drive's part is integrated exactly.
     return_deltas : bool
         Also return the relative displacements ``delta`` (n_e, N).
 
@@ -279,6 +284,8 @@ def simulate_local_nonlinear(
     coef = drive._coef
     n_e = len(laws)
     states = [law.initial_state() for law in laws]
+    memoryless = np.array([st is None for st in states], dtype=bool)  # ForceLaw: None state = memoryless
+    half_step = 0.5 * h
     xi = np.zeros(mu.size, dtype=complex)
     out = np.empty((c_xi.shape[0], n_t))
     deltas = np.empty((n_e, n_t)) if return_deltas else None
@@ -307,10 +314,21 @@ def simulate_local_nonlinear(
                 psi_in = psi
             delta = (dz @ xi).real + gr * psi[0]
             delta_t = (dzt @ xi).real + gr * psi[1]
+            if j == 0:  # the output: the element forces at the sample instant itself
+                r_now = np.array([
+                    laws[e].residual(float(delta[e]), float(delta_t[e]), states[e])[0] if memoryless[e]
+                    else 0.0
+                    for e in range(n_e)
+                ])
+            # the force held over the sub-step: a memoryless law at the sub-step's predicted midpoint (second
+            # order: the hold's half-step lag would act as a negative damper k_tangent h / 2)
+            ahead = delta + half_step * delta_t
             for e in range(n_e):
-                r[e], states[e] = laws[e].residual(float(delta[e]), float(delta_t[e]), states[e])
+                at = ahead[e] if memoryless[e] else delta[e]
+                r[e], states[e] = laws[e].residual(float(at), float(delta_t[e]), states[e])
             if j == 0:
-                out[:, k] = (c_xi @ xi).real + d_out @ psi + d_r @ r
+                r_out = np.where(memoryless, r_now, r)
+                out[:, k] = (c_xi @ xi).real + d_out @ psi + d_r @ r_out
                 if return_deltas:
                     deltas[:, k] = delta
             if not last:
