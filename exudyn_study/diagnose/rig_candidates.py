@@ -440,30 +440,43 @@ def _cubic_laws(p, elements):
     return [CubicStiffening(float(p[0])) for _ in elements]
 
 
+#: the pad's two hardening terms (``bushing_stiffening``): the fitted coefficient, the other one held at
+#: zero, and the screening grid (N/m^3). Shear acts on the faces' mean motion, compression per quadrant
+#: (it carries the pad's rocking too); the quadrants move ~3x more than the faces' mean shear
+BUSHING_TERMS = (
+    ("cubic_stiffness_n_per_m3", "compression_cubic_stiffness_n_per_m3", (1e12, 1e13, 1e14, 1e15)),
+    ("compression_cubic_stiffness_n_per_m3", "cubic_stiffness_n_per_m3", (1e11, 1e12, 1e13, 1e14)),
+)
+
+
 def _bushing(ctx: CandidateContext):
     from .rig_hypotheses import LocalElementHypothesis
 
     if ("bushing_stiffening", "bracket_left") in ctx.done:
         return []
+    out = []
     try:
-        ctx.say("linearising the bushing-stiffening hypothesis")
-        return [
-            LocalElementHypothesis(
-                "bushing_stiffening",
-                "bracket_left",
-                ctx.entry("bushing_stiffening"),
-                ctx.build,
-                {"cubic_stiffness_n_per_m3": 1e11},
-                _cubic_laws,
-                component="bracket_left",
-                sensors=tuple(s for s in ctx.sensor_names if s.startswith("ASV")),
-                interface="bracket_left",
-                screen_grid=(1e12, 1e13, 1e14, 1e15),
+        for fitted, held, grid in BUSHING_TERMS:
+            ctx.say(f"linearising the bushing-stiffening hypothesis ({fitted})")
+            out.append(
+                LocalElementHypothesis(
+                    "bushing_stiffening",
+                    "bracket_left",
+                    ctx.entry("bushing_stiffening"),
+                    ctx.build,
+                    {fitted: 1e11},
+                    _cubic_laws,
+                    component="bracket_left",
+                    sensors=tuple(s for s in ctx.sensor_names if s.startswith("ASV")),
+                    interface="bracket_left",
+                    screen_grid=grid,
+                    fixed={held: 0.0},
+                )
             )
-        ]
     except InputError as exc:  # the model has no rubber bushing region
         log.info("bushing_stiffening not applicable: %s", exc)
         return []
+    return out
 
 
 #: start of the friction candidates: a stuck contact as stiff as the entry's default, slip force
@@ -538,11 +551,17 @@ def _explain_drive_linkage(h, v, ctx: ExplainContext) -> str:
 
 
 def _explain_bushing_stiffening(h, v, ctx: ExplainContext) -> str:
-    k3, s3 = v["cubic_stiffness_n_per_m3"]
+    if "compression_cubic_stiffness_n_per_m3" in v:
+        k3, s3 = v["compression_cubic_stiffness_n_per_m3"]
+        term = "in compression: a cubic term of {} N/m^3 on each quadrant of the pad (its rocking hardens too)"
+    else:
+        k3, s3 = v["cubic_stiffness_n_per_m3"]
+        term = "in shear: a cubic term of {} N/m^3 across the pad (z and x)"
     return (
-        f"The left mudguard bracket's rubber bushing stiffens with amplitude: a cubic term of "
-        f"{k3:.3g} +- {s3:.2g} N/m^3 across the pad (z and x) explains a mismatch at {ctx.where} that grows "
-        f"with the drive level (the linear model fits the low level and misses the high one)."
+        f"The left mudguard bracket's rubber bushing stiffens with amplitude "
+        f"{term.format(f'{k3:.3g} +- {s3:.2g}')}"
+        f" explains a mismatch at {ctx.where} that grows with the drive level (the linear model fits the low "
+        f"level and misses the high one)."
     )
 
 
@@ -638,7 +657,8 @@ register_rig_candidate(
     _bushing,
     kind="simulated",
     needs_level_dependence=True,
-    description="cubic hardening across the left bracket's rubber pad (simulated in time)",
+    description="cubic hardening of the left bracket's rubber pad, in shear or in compression per quadrant "
+    "(simulated in time)",
     explain=_explain_bushing_stiffening,
 )
 register_rig_candidate(

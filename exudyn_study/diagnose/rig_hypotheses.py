@@ -490,7 +490,7 @@ class LocalElementHypothesis(Hypothesis):
 
         model = build()
         n_old = len(model.local_nonlinearities)
-        applied = entry.apply(model, location, **start)
+        applied = entry.apply(model, location, **start, **self.fixed)
         model.assemble()
         rl = _Relinearised(model)
         self.lin = rl.base

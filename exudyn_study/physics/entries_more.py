@@ -307,19 +307,59 @@ def _rubber_faces(body, count: int = 8) -> tuple[np.ndarray, np.ndarray]:
     return pick[0], pick[1]
 
 
+def _pad_quadrants(body, face: np.ndarray, count: int) -> list[np.ndarray]:
+    """Split a pad face's nodes into its four quadrants (about the face centre, in the face plane).
+
+    Returns ``count`` well-spread nodes of each quadrant, in the order (-,-), (-,+), (+,-), (+,+)
+    of the two in-plane axes.
+    """
+    x = np.asarray(body.node_positions_m)[face]
+    normal = int(np.argmin(np.ptp(x, axis=0)))
+    a, b = [k for k in range(3) if k != normal]
+    centre = x.mean(axis=0)
+    out = []
+    for sa in (False, True):
+        for sb in (False, True):
+            sel = face[((x[:, a] > centre[a]) == sa) & ((x[:, b] > centre[b]) == sb)]
+            if sel.size == 0:
+                raise InputError(f"bushing_stiffening: the rubber pad's face has no nodes in one quadrant "
+                                 f"({face.size} face nodes); the pad mesh is too coarse for the compression "
+                                 "term")
+            out.append(sel[_spread(np.asarray(body.node_positions_m)[sel], count)])
+    return out
+
+
 def _add_bushing_stiffening(model, location, params: dict) -> dict:
     body_name = _rubber_body(model)
     body = model.bodies[body_name].body
-    inner, outer = _rubber_faces(body)
-    m_frame, _ = _node_set_marker(model, body_name, inner, rigid=False)
-    m_bracket, _ = _node_set_marker(model, body_name, outer, rigid=False)
-    law = CubicStiffening(params["cubic_stiffness_n_per_m3"])
-    for axis in (2, 0):
-        model.local_nonlinearities.append(LocalNonlinearity(
-            name=f"bushing_stiffening:{_AXES[axis]}", marker_a=m_frame, marker_b=m_bracket,
-            direction=np.eye(3)[axis], law=law,
-            description=f"cubic stiffening of the left bracket's rubber bushing along {_AXES[axis]}"))
-    return {"frame_side_marker": m_frame, "bracket_side_marker": m_bracket}
+    added = {}
+    k3 = params["cubic_stiffness_n_per_m3"]
+    if k3 > 0.0:
+        inner, outer = _rubber_faces(body)
+        m_frame, _ = _node_set_marker(model, body_name, inner, rigid=False)
+        m_bracket, _ = _node_set_marker(model, body_name, outer, rigid=False)
+        law = CubicStiffening(k3)
+        for axis in (2, 0):
+            model.local_nonlinearities.append(LocalNonlinearity(
+                name=f"bushing_stiffening:{_AXES[axis]}", marker_a=m_frame, marker_b=m_bracket,
+                direction=np.eye(3)[axis], law=law,
+                description=f"cubic stiffening of the left bracket's rubber bushing along {_AXES[axis]}"))
+        added.update(frame_side_marker=m_frame, bracket_side_marker=m_bracket)
+    k3c = params["compression_cubic_stiffness_n_per_m3"]
+    if k3c > 0.0:
+        inner, outer = _rubber_faces(body, count=10**6)  # every face node, then spread per quadrant
+        normal = int(np.argmin(np.ptp(np.asarray(body.node_positions_m)[inner], axis=0)))
+        law = CubicStiffening(k3c)
+        quads = zip(_pad_quadrants(body, inner, 6), _pad_quadrants(body, outer, 6), strict=True)
+        for q, (a, b) in enumerate(quads):
+            m_a, _ = _node_set_marker(model, body_name, a, rigid=False)
+            m_b, _ = _node_set_marker(model, body_name, b, rigid=False)
+            model.local_nonlinearities.append(LocalNonlinearity(
+                name=f"bushing_stiffening:compression{q}", marker_a=m_a, marker_b=m_b,
+                direction=np.eye(3)[normal], law=law,
+                description=f"cubic compression hardening of the left bracket's rubber pad, quadrant {q}"))
+            added[f"compression_markers_{q}"] = (m_a, m_b)
+    return added
 
 
 BUSHING_STIFFENING = register(PhysicsEntry(
@@ -336,6 +376,15 @@ bracket side (base plate). This works on every variant: in Model 3 the pad is in
 ``bracket_left`` body, in Models 1 and 2 inside the chassis body (the real geometry; a body
 without that region is an error). Simulate with ``method='linear'``.
 
+``compression_cubic_stiffness_n_per_m3`` (default 0: off) adds the hardening of the
+rubber in compression: four cubic elements across the pad along its normal (``y``), one per
+quadrant of the pad (each between the means of six frame-side and six bracket-side face nodes
+of that quadrant). Bonded rubber hardens most in compression, and the four quadrants carry
+the pad's rocking too (a tilt compresses two quadrants and opens the other two): the modes of
+the bracket on a pad whose rocking is stiff relative to its shear (the thesis scenario) feel
+the compression term, not the shear one. Each term is only added where its coefficient is
+positive.
+
 Signature: at small drive level nothing changes; with rising level the left bracket's
 modes (``ASV*`` sensors) rise in frequency (equivalent stiffness ``k0 + 3/4 k3 a^2`` by
 harmonic balance), and a sine drive produces odd harmonics (3f, 5f) at the bracket whose
@@ -344,6 +393,8 @@ third-harmonic ratio grows as the square of the level; no even harmonics.
     parameters=(
         Parameter("cubic_stiffness_n_per_m3", "N/m^3", 0.0, 1e16, 1e11,
                   "cubic coefficient of the bushing force in each shear direction"),
+        Parameter("compression_cubic_stiffness_n_per_m3", "N/m^3", 0.0, 1e16, 0.0,
+                  "cubic coefficient of the bushing force in compression, per quadrant of the pad"),
     ),
     add_items=_add_bushing_stiffening,
     locations="None or 'bracket_left' (the left mudguard bracket's rubber bushing)",
