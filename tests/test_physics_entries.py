@@ -230,6 +230,84 @@ def test_joint_stiffness_lowers_the_modes_that_load_the_joint_by_the_rayleigh_es
     np.testing.assert_allclose(shift[band], predicted[band], rtol=0.1, atol=2e-6)
 
 
+def _patch_motion(model, interface: str, n_q: int) -> tuple[np.ndarray, np.ndarray, np.ndarray]:
+    """(centre, translation (3, n_q), rotation (3, n_q)) of a rigid interface patch per ODE2 coordinate: the
+    least-squares rigid motion of its nodes, from the body's mode basis (not from Exudyn's connector)."""
+    from exudyn_study.modal import body_displacement_map
+
+    handle = model.interfaces[interface]
+    body = model.bodies[handle.body].body
+    i = body.interface_index(handle.name)
+    nodes = np.asarray(body.interface_nodes[i], dtype=int)
+    w = np.asarray(body.interface_weights[i], dtype=float)
+    x = np.asarray(body.node_positions_m)[nodes]
+    centre = (w[:, None] * x).sum(axis=0) / w.sum()
+    r = x - centre
+    rigid = np.zeros((nodes.size, 3, 6))  # u_i = u_c + theta x r_i = u_c - skew(r_i) theta
+    rigid[:, :, :3] = np.eye(3)
+    rigid[:, 0, 4], rigid[:, 0, 5] = r[:, 2], -r[:, 1]
+    rigid[:, 1, 3], rigid[:, 1, 5] = -r[:, 2], r[:, 0]
+    rigid[:, 2, 3], rigid[:, 2, 4] = r[:, 1], -r[:, 0]
+    idx, mat = body_displacement_map(model, handle.body, nodes)
+    motion = np.linalg.lstsq(rigid.reshape(-1, 6), mat, rcond=None)[0]
+    out = np.zeros((6, n_q))
+    out[:, idx] = motion
+    return centre + np.asarray(model.bodies[handle.body].position_m), out[:3], out[3:]
+
+
+def test_joint_stiffness_is_unloaded_at_the_reference_and_its_damper_adds_exactly_its_coefficient(bodies3):
+    """The frame's and the component's patch centres lie apart (1 cm across the web on the chassis). The
+    joint's spring is unloaded at the reference: its stiffness contribution ``K(2 k) - K(k)`` is symmetric
+    positive semi-definite of rank 3 (a spring preloaded by ``k`` times the gap adds a non-symmetric
+    geometric stiffness proportional to ``k``). Its translational damper ``c = t k`` adds exactly
+    ``c B^T B`` to the linearised damping matrix, linear in ``t``, and its spring ``k B^T B`` to the
+    stiffness; ``B`` is the relative translation of the two patch centres per admissible coordinate
+    (the patches' least-squares rigid motion from the bodies' mode bases, in the constraints' null
+    space)."""
+    import dataclasses
+
+    import exudyn as exu
+
+    from exudyn_study import modal
+
+    k_t, k_r = 4e9, 5e5  # as stiff as the thesis's left tank mounts
+    # the mini tank's patch touches the frame's: shift the tank 1 cm outboard as on the chassis (its
+    # inertia terms are not updated: the mass matrix is not compared here)
+    tank = bodies3["tank_left"]
+    shift = np.array([0.0, 0.01, 0.0])
+    body = dataclasses.replace(tank.body, node_positions_m=np.asarray(tank.body.node_positions_m) + shift,
+                               interface_centers_m=np.asarray(tank.body.interface_centers_m) + shift)
+    bodies = {**bodies3, "tank_left": dataclasses.replace(tank, body=body)}
+
+    def matrices(k, tau):
+        model = _model3(bodies)
+        applied = entry("joint_stiffness").apply(model, "tank_left_front", stiffness_n_per_m=k,
+                                                 rotational_stiffness_n_m_per_rad=k_r, damping_time_s=tau,
+                                                 rotational_damping_factor=0.0)
+        model.assemble()
+        spring = applied.items["spring"]
+        force = np.asarray(model.mbs.GetObjectOutput(spring, exu.OutputVariableType.ForceLocal))
+        lin = modal.linearize(model)
+        return model, lin.stiffness, lin.damping, force, lin.nullspace
+
+    model, k1, d0, force, null = matrices(k_t, 0.0)
+    n_q = null.shape[1]
+    p0, u0, _ = _patch_motion(model, "frame.tank_left_front", n_q)
+    p1, u1, _ = _patch_motion(model, "tank_left.tank_left_front", n_q)
+    gap = p1 - p0
+    assert np.linalg.norm(gap) > 5e-3
+    b = (u1 - u0) @ null.T  # the patch centres' relative translation
+    assert np.abs(force).max() < 1e-6 * k_t * np.linalg.norm(gap)  # no preload (it would be k |gap| = 40 MN)
+
+    spring = matrices(2.0 * k_t, 0.0)[1] - k1
+    np.testing.assert_allclose(spring, k_t * b.T @ b, rtol=0, atol=1e-6 * np.abs(spring).max())
+
+    for tau in (1e-5, 3e-5):
+        damper = matrices(k_t, tau)[2] - d0
+        expected = tau * k_t * b.T @ b
+        np.testing.assert_allclose(damper, expected, rtol=0, atol=1e-6 * np.abs(expected).max())
+
+
 def test_joint_stiffness_rotational_damping_factor_scales_the_damping_of_the_rocking_modes(bodies3):
     """C = t (K_t + f K_r): on an otherwise undamped model each mode's damping ratio is, to first order,
     ``zeta_t + f zeta_r`` (translation's and rotation's shares): f = 0, 1, 3 lie on one line per mode, and
