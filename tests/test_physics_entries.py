@@ -653,6 +653,52 @@ def test_bushing_stiffness_rocking_factors_scale_the_rocking_springs_only(bodies
     assert np.median(np.abs(((f1[big] / f0[big]) ** 2 - 1.0) / predicted[big] - 1.0)) < 0.06
 
 
+def test_bushing_stiffness_torsion_change_softens_the_pad_in_torsion_and_stays_positive(bodies3, nominal3):
+    """``torsion_modulus_change_pa`` changes only the torsion about the pad's normal (K[4, 4] by
+    change J / t); negative, the mode that twists the pad softens by that spring's energy (first order)
+    and the negative spring gets no damper (a negative damper would drive it); a change that leaves the
+    pad's torsion modulus (nominal rubber + increase + change) below 1 % of the nominal rubber's is
+    refused."""
+    from exudyn_study import modal
+    from exudyn_study.materials import MATERIALS
+    from exudyn_study.physics.entries_structure import pad_spring_matrix, rubber_pad
+
+    model0, lin0 = nominal3
+    pad = rubber_pad(model0.bodies["bracket_left"].body)
+    g, e_c, change, tau = 5e3, 2.5e4, -2e4, 1e-3
+    k1 = pad_spring_matrix(pad, g, e_c)
+    k = pad_spring_matrix(pad, g, e_c, torsion_modulus_change_pa=change)
+    j_over_t = 0.01 * (0.1**2 + 0.1**2) / 12 / 0.02  # the mini pad's J / t (m^3)
+    np.testing.assert_allclose(np.diag(k) - np.diag(k1), [0, 0, 0, 0, change * j_over_t, 0], atol=1e-9)
+    assert k[4, 4] < 0
+    f0, phi0 = _undamped(lin0)
+    rel = (_face_motion(model0, lin0, "bracket_left", pad["outer"], pad["centre_m"], phi0)
+           - _face_motion(model0, lin0, "bracket_left", pad["inner"], pad["centre_m"], phi0))
+    predicted = np.einsum("im,ij,jm->m", rel, k, rel) / (TWO_PI * np.maximum(f0, 1e-9)) ** 2
+    model = _model3(bodies3)
+    applied = entry("bushing_stiffness").apply(model, shear_modulus_increase_pa=g,
+                                               compression_modulus_increase_pa=e_c,
+                                               torsion_modulus_change_pa=change, damping_time_s=tau)
+    d = np.asarray(model.mbs.GetObject(applied.items["spring"])["damping"])
+    np.testing.assert_allclose(np.diag(d), tau * np.maximum(np.diag(k), 0.0))
+    f1 = _undamped(modal.linearize(model))[0]
+    # the mode that twists the pad (-0.54 % in w^2); a second one loses 0.04-0.05 %, where the face
+    # rotation fitted here and the rigid marker's (averaged nodes) differ as in the rocking test above
+    twist = (f0 > 1.0) & (f0 < 150.0) & (predicted < -1e-3)
+    assert twist.sum() == 1
+    np.testing.assert_allclose((f1[twist] / f0[twist]) ** 2 - 1.0, predicted[twist], rtol=0.1)
+    modes = modal.system_modes(model, modal.linearize(model), max_frequency_hz=150.0)
+    assert modes.damping_ratio.min() > 0
+
+    g_rubber = MATERIALS["rubber"].lame_parameters[0]
+    with pytest.raises(InputError, match=r"bushing_stiffness: torsion_modulus_change_pa = -4e\+06 Pa leaves "
+                                         r"the pad a torsion modulus of .* expected above"):
+        entry("bushing_stiffness").apply(_model3(bodies3), shear_modulus_increase_pa=0.0,
+                                         torsion_modulus_change_pa=-4e6)
+    entry("bushing_stiffness").apply(_model3(bodies3), shear_modulus_increase_pa=0.0,
+                                     torsion_modulus_change_pa=-0.98 * g_rubber)  # 2 % left: accepted
+
+
 def test_bushing_stiffness_needs_the_rubber_pad(bodies1, bodies3):
     with pytest.raises(InputError, match=r"bushing_stiffness: no body of this model has the rubber region"):
         entry("bushing_stiffness").apply(_model1(bodies1))

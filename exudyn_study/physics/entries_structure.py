@@ -14,6 +14,8 @@ from __future__ import annotations
 
 import numpy as np
 
+from ..errors import InputError
+from ..materials import MATERIALS
 from .catalogue import Parameter, PhysicsEntry, register
 from .entries_more import _RUBBER_REGION, _rubber_body, exudyn_mesh_nodes, rubber_pad_location_check
 
@@ -52,7 +54,7 @@ def rubber_pad(body, region: str = _RUBBER_REGION) -> dict:
 
 
 def pad_spring_matrix(pad: dict, shear_modulus_pa: float, compression_modulus_pa: float,
-                      rocking_factors=(1.0, 1.0, 1.0)) -> np.ndarray:
+                      rocking_factors=(1.0, 1.0, 1.0), torsion_modulus_change_pa: float = 0.0) -> np.ndarray:
     """6 x 6 stiffness (N/m, N m/rad; translations then rotations about x, y, z) of a bonded pad.
 
     A thin block of thickness ``t`` and in-plane sides ``a``, ``b`` bonded between two rigid
@@ -61,7 +63,8 @@ def pad_spring_matrix(pad: dict, shear_modulus_pa: float, compression_modulus_pa
     ``J = A (a^2 + b^2) / 12`` and rocking about an in-plane axis ``E_c I / t`` with ``I`` the
     area's second moment about that axis (``A s^2 / 12``, ``s`` the side across it), times
     ``rocking_factors[axis]`` (the rocking modulus over the compression modulus about global
-    x, y, z; the normal's entry is unused).
+    x, y, z; the normal's entry is unused). The torsion uses ``shear_modulus_pa +
+    torsion_modulus_change_pa`` (default: the shear modulus).
     """
     n, t, area = pad["normal"], pad["thickness_m"], pad["area_m2"]
     ext = np.asarray(pad["extent_m"], dtype=float)
@@ -69,7 +72,8 @@ def pad_spring_matrix(pad: dict, shear_modulus_pa: float, compression_modulus_pa
     for axis in range(3):
         if axis == n:
             k[axis] = compression_modulus_pa * area / t
-            k[3 + axis] = shear_modulus_pa * area * (np.sum(ext**2) - ext[n] ** 2) / 12.0 / t
+            torsion = shear_modulus_pa + torsion_modulus_change_pa
+            k[3 + axis] = torsion * area * (np.sum(ext**2) - ext[n] ** 2) / 12.0 / t
         else:
             across = 3 - n - axis  # the in-plane side perpendicular to this rocking axis
             k[axis] = shear_modulus_pa * area / t
@@ -99,9 +103,17 @@ def _add_bushing_stiffness(model, location, params: dict) -> dict:
     pad = rubber_pad(model.bodies[body_name].body)
     m_frame = _face_marker(model, body_name, pad["inner"], pad["centre_m"])
     m_bracket = _face_marker(model, body_name, pad["outer"], pad["centre_m"])
+    g_rubber = MATERIALS["rubber"].lame_parameters[0]
+    g_torsion = g_rubber + params["shear_modulus_increase_pa"] + params["torsion_modulus_change_pa"]
+    if g_torsion <= 0.01 * g_rubber:
+        change = params["torsion_modulus_change_pa"]
+        raise InputError(f"bushing_stiffness: torsion_modulus_change_pa = {change:g} Pa leaves the pad a "
+                         f"torsion modulus of {g_torsion:g} Pa; expected above "
+                         f"{0.01 * g_rubber:g} Pa (1 % of the nominal rubber's {g_rubber:g} Pa)")
     k = pad_spring_matrix(pad, params["shear_modulus_increase_pa"], params["compression_modulus_increase_pa"],
-                          (params["rocking_factor_about_x"], 1.0, params["rocking_factor_about_z"]))
-    d = params["damping_time_s"] * k
+                          (params["rocking_factor_about_x"], 1.0, params["rocking_factor_about_z"]),
+                          params["torsion_modulus_change_pa"])
+    d = params["damping_time_s"] * np.maximum(k, 0.0)  # a softer torsion takes no damping off the rubber
     spring = model.mbs.AddObject(eii.ObjectConnectorRigidBodySpringDamper(
         name="bushing_stiffness:bracket_left", markerNumbers=[m_frame, m_bracket], stiffness=k.tolist(),
         damping=d.tolist(), visualization=eii.VObjectConnectorRigidBodySpringDamper(show=False)))
@@ -129,7 +141,15 @@ apparent modulus in rocking is not its compression modulus, and it differs betwe
 (0.20 m along x) and the short (0.08 m along z) side (Gent 2012, Ch. 9: the shape-factor
 term of the tilting modulus is a third of the compression one's for a long strip); the
 pad's rocking about x carries the bracket's vertical (z) mode, about z its x mode. The
-factors are unused for the pad's normal (y, torsion). The damping is stiffness-proportional,
+factors are unused for the pad's normal (y, torsion). The torsion about the normal (the
+bracket turning in the pad's plane, about y) takes the shear increase plus
+``torsion_modulus_change_pa`` (default 0), which may be negative down to a total torsion
+modulus of 1 % of the nominal rubber's: torsion strains the pad's rim most, and a pad
+clamped rather than bonded at its rim, or softer there (cure, ageing), is softer in torsion
+than the bonded block while its shear and compression are set by the whole area; the
+negative part is a spring in parallel with the body's own rubber, which stays positive in
+total (it gets no damper: the rubber's own loss is the body's modal damping). The damping is
+stiffness-proportional,
 ``damping_time_s * K`` (the rubber's loss: a mode carried by the pad gets
 ``zeta ~ damping_time_s * omega / 2`` of that spring's share of its strain energy).
 
@@ -149,6 +169,8 @@ frequency. The response is level-independent (linear).
                   "rocking modulus / compression modulus of the added spring about x"),
         Parameter("rocking_factor_about_z", "1", 0.0, 10.0, 1.0,
                   "rocking modulus / compression modulus of the added spring about z"),
+        Parameter("torsion_modulus_change_pa", "Pa", -1e7, 1e7, 0.0,
+                  "torsion modulus of the added spring minus its shear modulus (negative: softer)"),
     ),
     add_items=_add_bushing_stiffness,
     locations="None or 'bracket_left' (the left mudguard bracket's rubber bushing)",
