@@ -135,6 +135,16 @@ def test_average_identifications_keeps_the_modes_both_references_found():
         average_identifications([])
 
 
+def test_pairing_keeps_the_frequency_order_when_two_modes_lie_above_two_rows():
+    """15.24 and 15.79 Hz against the rows 14.15 and 15.00 Hz: the plain log distances of both pairings
+    are equal (ln 15.24 + ln 15.79 - ln 14.15 - ln 15.00); the squared ones pair in order."""
+    for f in ([15.24, 15.79], [15.79, 15.24]):
+        rows = compare_table1(f, [0.01, 0.02])
+        assert [f[rows[2]["index"]], f[rows[3]["index"]]] == [15.24, 15.79]
+    plain = [abs(np.log(a / b)) for a, b in ((15.24, 14.15), (15.79, 15.00), (15.79, 14.15), (15.24, 15.00))]
+    assert plain[0] + plain[1] == pytest.approx(plain[2] + plain[3], rel=1e-12)
+
+
 def test_a_mode_table1_lacks_stays_extra_instead_of_shifting_the_pairs():
     """Table 1 at +3 % plus a mode at 25.8 Hz (between rows 21.21 and 32.69): without the cap on the
     frequency error the extra mode would take the 32.69 row and push the rest up by one."""
