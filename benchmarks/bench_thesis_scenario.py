@@ -10,7 +10,7 @@ reference, ``-r ARFVZ`` and ``-r ARFHZ``, and the modes both found averaged; the
 points move almost together, 0.998 vs 1.000 m per m of drive, so the two-reference
 identification is ill-conditioned and shows poles the truth does not have, the one-reference
 ones do not), then pairs the identified modes one-to-one with thesis Table 1
-(:func:`exudyn_study.virtual_rig.thesis.compare_table1`, least total log-frequency distance,
+(:func:`exudyn_study.virtual_rig.thesis.compare_table1`, least total squared log-frequency distance,
 pairs within 25 %) and prints, per Table-1 mode, the identified frequency and damping ratio
 with their relative errors, the modes left over, how many are within 10 % in both, and the
 wall times. With ``--modes`` it also prints the linearised truth's system modes (frequency,
