@@ -19,7 +19,7 @@ apply). The registration declares
 
 The built-ins (``added_mass``, ``modal_damping``, ``sensor_gain``,
 ``drive_linkage_compliance``, ``joint_stiffness``, ``bushing_stiffness``,
-``bushing_stiffening``, ``joint_friction``) are registered here through
+``rear_support_compliance``, ``bushing_stiffening``, ``joint_friction``) are registered here through
 :func:`register_rig_candidate`, the same call a user makes for an own catalogue entry
 (register the entry itself with :func:`exudyn_study.physics.register` first)::
 
@@ -433,6 +433,63 @@ def _bushing_stiffness(ctx: CandidateContext):
         return []
 
 
+def _rear_support_basis(model):
+    """Stiffness basis of ``rear_support_compliance``: its Cartesian spring (x, y, z) per unit vertical k."""
+    return {"vertical_stiffness_n_per_m": np.array([0.0, 0.0, 1.0])}
+
+
+#: start of the rear-support candidates: a support about as stiff as the frame's rear bending (the
+#: thesis's Table-1 frame modes at 41-44 Hz need ~2e7 N/m); the grid below picks the start
+REAR_SUPPORT_START = {"vertical_stiffness_n_per_m": 2e7, "damping_time_s": 1e-4}
+#: screening grid (vertical stiffness N/m, damping time s): the residual is flat in the stiffness far
+#: above the frame's own rear stiffness, so a fit from one stiff start does not reach a soft support
+REAR_SUPPORT_SCREEN = tuple((k, 1e-4) for k in (3e6, 1e7, 3e7, 1e8, 1e9))
+#: the support taken out of a joint fit: as stiff as the catalogue allows (the nominal support is rigid)
+REAR_SUPPORT_RIGID = {"vertical_stiffness_n_per_m": 1e10}
+
+
+def _rear_support(ctx: CandidateContext):
+    """Return the frame's rear attachments (``rear_left``, ``rear_right``) on a vertical spring.
+
+    Offered when the mismatch is on the frame (the entry leaves the component modes alone).
+    """
+    from .rig_hypotheses import ConnectorHypothesis
+
+    on_frame = any(sensor_component(s) == "frame" for s in ctx.located)
+    if getattr(ctx.model, "rig", None) is None or not on_frame:
+        return []
+    out = []
+    for side in ("rear_left", "rear_right"):
+        if ("rear_support_compliance", side) in ctx.done:
+            continue
+        if f"foundation_{side}" not in ctx.model.rig.joints:
+            continue
+        point = next((pos for loc, (_, pos) in ctx.markers.items()
+                      if loc.endswith(f".{side}") and not loc.startswith("rear_foundation")), None)
+        near = tuple(
+            s for s in ctx.sensor_names
+            if point is not None and np.linalg.norm(ctx.markers[s][1] - point) < 0.5
+        )
+        ctx.say(f"linearising the rear-support hypothesis at {side}")
+        out.append(
+            ConnectorHypothesis(
+                "rear_support_compliance",
+                side,
+                ctx.entry("rear_support_compliance"),
+                ctx.build,
+                dict(REAR_SUPPORT_START),
+                basis=_rear_support_basis,
+                component="frame",
+                sensors=near or ctx.component_sensors("frame"),
+                interface=f"foundation_{side}",
+                screen_grid=REAR_SUPPORT_SCREEN,
+                may_vanish=("damping_time_s",),
+                neutral=dict(REAR_SUPPORT_RIGID),
+            )
+        )
+    return out
+
+
 def _cubic_laws(p, elements):
     """Cubic stiffening laws with coefficient ``p[0]`` for every new element."""
     from ..physics.nonlinear import CubicStiffening
@@ -597,6 +654,19 @@ def _explain_joint_friction(h, v, ctx: ExplainContext) -> str:
     )
 
 
+def _explain_rear_support(h, v, ctx: ExplainContext) -> str:
+    k, sk = v["vertical_stiffness_n_per_m"]
+    t, _ = v["damping_time_s"]
+    side = h.location.replace("rear_", "")
+    return (
+        f"The frame's {side} rear attachment does not sit rigidly on the rear foundation: a vertical "
+        f"stiffness of {k:.3g} +- {sk:.2g} N/m (damping time {t:.2g} s) between the frame and the foundation "
+        f"(bracket, bearing, base plate and anchorage) lowers the frame modes that load the support "
+        f"vertically, to first order d(omega^2) = -lambda_z^2 / k ({ctx.shifts or 'small shifts'}); the "
+        f"component modes stay; sensors {ctx.where} see it."
+    )
+
+
 def _explain_modal_damping(h, v, ctx: ExplainContext) -> str:
     f, s = v["factor"]
     return (
@@ -639,6 +709,12 @@ register_rig_candidate(
     _bushing_stiffness,
     description="the left bracket's rubber pad stiffer (shear and compression modulus) and lossier",
     explain=_explain_bushing_stiffness,
+)
+register_rig_candidate(
+    "rear_support_compliance",
+    _rear_support,
+    description="a frame rear attachment on a vertical spring-damper (vertical stiffness, damping time)",
+    explain=_explain_rear_support,
 )
 register_rig_candidate(
     "modal_damping",

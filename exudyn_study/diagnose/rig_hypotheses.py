@@ -401,14 +401,15 @@ def joint_basis(model) -> dict:
 
 
 class ConnectorHypothesis(Hypothesis):
-    """An entry that adds one 6-DOF spring-damper (``joint_stiffness``, ``bushing_stiffness``), one build.
+    """An entry that adds one spring-damper (joint, pad: 6-DOF; rear support: Cartesian), one build.
 
-    The spring's stiffness matrix is ``sum_i p_i B_i`` over the stiffness parameters (``basis(model)``
-    -> {name: B_i}, default :func:`joint_basis`) and its damping ``t`` times it (``damping`` names
-    ``t``, a damping time). The entry is applied at ``start`` with no damping; the derivatives of
-    the matrices by each ``p_i`` and by damping ``B_i`` are taken on the same assembled model
-    (:class:`_Relinearised`): ``K0 + sum (p_i - p_i0) dK_i`` and ``C0 + t sum p_i dC_i``, exact
-    (``C`` is bilinear in ``p`` and ``t``, which a purely affine interpolation is not).
+    The spring's stiffness (a 6x6 matrix or a Cartesian spring's 3-vector) is ``sum_i p_i B_i`` over the
+    stiffness parameters (``basis(model)`` -> {name: B_i}, default :func:`joint_basis`) and its damping
+    ``t`` times it (``damping`` names ``t``, a damping time). The entry is applied at ``start`` with
+    no damping; the derivatives of the matrices by each ``p_i`` and by damping ``B_i`` are taken on
+    the same assembled model (:class:`_Relinearised`): ``K0 + sum (p_i - p_i0) dK_i`` and
+    ``C0 + t sum p_i dC_i``, exact (``C`` is bilinear in ``p`` and ``t``, which a purely affine
+    interpolation is not).
     """
 
     def __init__(
@@ -433,7 +434,7 @@ class ConnectorHypothesis(Hypothesis):
         self.damping_index = self.names.index(damping)
         p0 = np.array([float(start[n]) for n in self.stiff_names])
         k_start = sum(v * unit[n] for n, v in zip(self.stiff_names, p0, strict=True))
-        zero = np.zeros((6, 6)).tolist()
+        zero = np.zeros_like(k_start).tolist()  # a 6x6 matrix (joint) or a 3-vector (Cartesian spring)
         self.base = rl.base
         self.p0 = p0
         self.d_k, self.d_c = [], []

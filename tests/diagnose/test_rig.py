@@ -103,3 +103,18 @@ def test_bushing_stiffening_on_model_3_is_found_as_level_dependent(tmp_path):
     assert f.physics == "bushing_stiffening" and f.level_dependent
     assert f.parameters["cubic_stiffness_n_per_m3"]["value"] == pytest.approx(5e13, rel=0.15)
     assert f.fit["holdout_after"] < 0.5 * f.fit["holdout_before"]
+
+
+def test_a_soft_rear_support_is_named_at_its_side_and_fitted(bodies):
+    """The frame's left rear attachment on a vertical spring: found as ``rear_support_compliance`` at
+    that side (not as a mass or the drive linkage), its stiffness within 10 %, the held-out error at
+    least halved."""
+    truth = {"vertical_stiffness_n_per_m": 5e6, "damping_time_s": 2e-4}
+    train, hold = _recordings(bodies, (Augment("rear_support_compliance", "rear_left", truth),))
+    d = _diagnose(bodies, train, hold)
+    assert d.mismatch_found and d.findings
+    f = d.findings[0]
+    assert (f.physics, f.location["interface"]) == ("rear_support_compliance", "foundation_rear_left")
+    assert f.parameters["vertical_stiffness_n_per_m"]["value"] == pytest.approx(5e6, rel=0.1)
+    assert f.fit["holdout_after"] < 0.5 * f.fit["holdout_before"]
+    assert "rear attachment" in f.explanation and "N/m" in f.explanation

@@ -84,6 +84,7 @@ def test_builtin_candidates_are_registered_with_their_kind():
         "joint_stiffness",
         "modal_damping",
         "sensor_gain",
+        "rear_support_compliance",
         "bushing_stiffening",
         "joint_friction",
     } <= set(RIG_CANDIDATES)
@@ -181,7 +182,14 @@ CONNECTORS = {
             "damping_time_s": 1.5e-3,
         },
     ),
+    "rear_support_compliance": (
+        "rear_left",
+        {"vertical_stiffness_n_per_m": 2e7, "damping_time_s": 1e-4},
+        {"vertical_stiffness_n_per_m": 6e6, "damping_time_s": 1.5e-3},
+    ),
 }
+#: the candidates' stiffness bases (default: the joint's 6-DOF one)
+BASES = {"bushing_stiffness": "_pad_basis", "rear_support_compliance": "_rear_support_basis"}
 
 
 @pytest.mark.parametrize("physics", sorted(CONNECTORS))
@@ -195,7 +203,7 @@ def test_connector_candidate_equals_the_model_with_the_entry_applied(model3, phy
     from exudyn_study.simulate import _state_space, frf_linear
 
     key, start, values = CONNECTORS[physics]
-    basis = {"bushing_stiffness": {"basis": rig_candidates._pad_basis}}.get(physics, {})
+    basis = {"basis": getattr(rig_candidates, BASES[physics])} if physics in BASES else {}
     h = ConnectorHypothesis(physics, key, entry(physics), model3, start, **basis)
     ref = _fresh(model3, physics, key, values)
     got = h.system([values[n] for n in h.names])
