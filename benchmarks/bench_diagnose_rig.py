@@ -131,6 +131,12 @@ def main(argv=None) -> int:
             wall_diagnosis_s=round(t_diag, 1),
             findings=[f.to_dict() for f in d.findings],
             unexplained=list(d.unexplained),
+            final_refit=d.metadata.get("final_refit"),
+            rejected_for_drift=[
+                f"{c['physics']}@{c['location']}"
+                for c in d.metadata.get("candidates", [])
+                if "drift" in str(c.get("rejected"))
+            ],
         )
         for f in row["findings"]:
             f["fit"].pop("per_channel", None)

@@ -81,7 +81,33 @@ def _match(truth_augs, finding) -> dict | None:
             return a
         if a["physics"] == "bushing_stiffness" and loc.get("component") == "bracket_left":
             return a
+        if (
+            a["physics"] == "rear_support_compliance"
+            and loc.get("interface") == f"foundation_{a['location']}"
+        ):
+            return a
     return None
+
+
+def _same_truth(truth_file: Path, sc) -> bool:
+    """Whether the truth file next to reused recordings is that of scenario ``sc`` as it is now."""
+    augs = json.loads(truth_file.read_text())["augmentations"]
+    now = [
+        {"physics": a.physics, "location": a.location, "parameters": dict(a.parameters)}
+        for a in sc.augmentations
+    ]
+
+    def key(items):
+        return sorted(
+            (
+                a["physics"],
+                str(a["location"]),
+                sorted((k, round(float(v), 12)) for k, v in a["parameters"].items()),
+            )
+            for a in items
+        )
+
+    return key(augs) == key(now)
 
 
 def _load() -> str:
@@ -125,6 +151,16 @@ def main(argv=None) -> int:
         [rec_dir / recording_name(sc.name, "test", lv) for lv in LEVELS] if args.protocol == "levels" else []
     )
     t0 = time.perf_counter()
+    truth_file = rec_dir / truth_name(sc.name)
+    if args.recordings and truth_file.exists() and not _same_truth(truth_file, sc):
+        print(
+            f"the recordings in {rec_dir} are of another version of the thesis scenario (its truth file "
+            f"differs from scenario('thesis')); writing new recordings into {out_dir}",
+            flush=True,
+        )
+        rec_dir = out_dir
+        paths = [rec_dir / recording_name(sc.name, s) for s in SIGNALS]
+        more = [rec_dir / recording_name(sc.name, "test", lv) for lv in LEVELS] if more else []
     if not all(p.exists() for p in paths) or not (rec_dir / truth_name(sc.name)).exists():
         paths = run_virtual_test(sc, list(SIGNALS), rec_dir, duration_s=args.duration)
     if not all(p.exists() for p in more):
@@ -168,12 +204,14 @@ def main(argv=None) -> int:
         params = {}
         for name, v in f.parameters.items():
             true = None if a is None else a["parameters"].get(name)
-            params[name] = {"fitted": v["value"], "std": v["std"], "truth": true}
+            params[name] = {"fitted": v["value"], "std": v["std"], "at_bound": v["at_bound"], "truth": true}
             rel = "" if not true else f" ({100 * (v['value'] / true - 1):+.1f} %)"
             print(
                 f"    {name:36s} {v['value']:.4g} +- {v['std']:.2g}   truth "
-                f"{true if true is not None else '-'}{rel}"
+                f"{true if true is not None else '-'}{rel}{'   AT ITS BOUND' if v['at_bound'] else ''}"
             )
+        for text in f.flags:
+            print(f"    flag: {text}")
         rows.append(
             {
                 "physics": f.physics,
@@ -182,6 +220,7 @@ def main(argv=None) -> int:
                 "parameters": params,
                 "fit": {k_: v_ for k_, v_ in f.fit.items() if k_ != "per_channel"},
                 "level_dependent": f.level_dependent,
+                "flags": list(f.flags),
             }
         )
     for u in d.unexplained:
@@ -214,6 +253,7 @@ def main(argv=None) -> int:
     found = {f.physics for f in d.findings}
     accept = {
         "linkage_found": "drive_linkage_compliance" in found,
+        "rear_supports_found": "rear_support_compliance" in found,
         "bushing_found": "bushing_stiffening" in found,
         "pseudo_damage_toward_100pct": bool(
             summary
@@ -222,6 +262,14 @@ def main(argv=None) -> int:
         ),
         "under_10_min": wall < 600.0,
     }
+    if "final_refit" in d.metadata:
+        r = d.metadata["final_refit"]
+        print(
+            f"final joint refit of {len(r['members'])} findings ({r.get('evaluator')}): training residual "
+            f"{r['train_residual_before']:.4g} -> {r['train_residual_after']:.4g}, held-out "
+            f"{r.get('holdout_before', float('nan')):.4g} -> {r.get('holdout_after', float('nan')):.4g}, "
+            f"adopted: {r.get('adopted')}"
+        )
     print(f"final held-out error {d.metadata.get('final_holdout_error')}")
     print(f"diagnosis wall time {wall:.0f} s (load {_load()}); acceptance {accept}")
     result = {
@@ -233,6 +281,7 @@ def main(argv=None) -> int:
         "pseudo_damage_summary": summary,
         "candidates": d.metadata.get("candidates"),
         "rounds": d.metadata.get("rounds"),
+        "final_refit": d.metadata.get("final_refit"),
         "protocol": args.protocol,
         "time_budget_s": st.time_budget_s,
         "wall_diagnosis_s": wall,

@@ -326,10 +326,15 @@ def write_report(
             )
         )
         parts.append(f"<p>{html.escape(f.explanation)}</p>")
+        if f.flags:
+            parts.append("<ul>" + "".join(f"<li>{html.escape(t)}</li>" for t in f.flags) + "</ul>")
         parts.append(
             _table(
-                [(k, _fmt(p["value"]), p["unit"], _fmt(p["std"])) for k, p in f.parameters.items()],
-                ("parameter", "value", "unit", "std"),
+                [
+                    (k, _fmt(p["value"]), p["unit"], _fmt(p["std"]), "at bound" if p.get("at_bound") else "")
+                    for k, p in f.parameters.items()
+                ],
+                ("parameter", "value", "unit", "std", ""),
             )
         )
         parts.append("<h3>Error before and after</h3>")

@@ -109,6 +109,20 @@ class RigDiagnosisSettings:
     max_findings: int = 8  # rounds of locate-name-fit
     time_budget_s: float = 540.0  # no new round once it would end after this (one diagnosis < 10 min)
     max_relative_std: float = 0.3
+    # drift between recordings (with two or more training recordings): a linear candidate's parameters are
+    # fitted on each training recording alone (from the pooled fit, chord steps with its Jacobian); it is
+    # rejected (in a round) or flagged (in the final joint refit) if two recordings' estimates of an
+    # identifiable parameter differ by more than drift_sigma combined standard deviations and by more
+    # than drift_rel_tol (relative; both in the log of a positive parameter)
+    drift_check: bool = True
+    drift_sigma: float = 3.0
+    drift_rel_tol: float = 0.25
+    drift_nfev: int = 15
+    # after the rounds, the linear findings carried into the model are refitted together (all their
+    # parameters; spectral or time domain as the rounds' last fit) and judged again; the refit is kept
+    # if it lowers the training residual and does not raise the held-out error
+    final_refit: bool = True
+    final_nfev: int = 20
     min_effect: float = 0.005
     p_value: float = 1e-3
 
@@ -160,6 +174,7 @@ class _Evaluator:
         from .rig_compare import RATE_HZ
 
         self.exact = exact
+        self.pad_s = pad_s
         self.recs = recordings
         self.sensor_names = tuple(sensor_names)
         self.idx = [np.array([self.sensor_names.index(c) for c in r.channels]) for r in recordings]
@@ -325,6 +340,115 @@ def _safe_residual(h: Hypothesis, ev: _Evaluator, channels, p):
     except (SimulationError, StudyError, np.linalg.LinAlgError, ValueError):
         return None
     return r if np.all(np.isfinite(r)) else None
+
+
+def _per_recording(ev) -> list:
+    """One evaluator per recording of ``ev`` (same residual rows as ``ev``'s part of that recording).
+
+    Returns an empty list for an evaluator that is not per recording (the level-dependent share).
+    """
+    if isinstance(ev, _SpectralEvaluator):
+        return [_SpectralEvaluator([r], ev.sensor_names) for r in ev.recs]
+    if not isinstance(ev, _Evaluator):
+        return []
+    out = []
+    for i, r in enumerate(ev.recs):
+        sub = _Evaluator([r], ev.sensor_names, ev.pad_s, exact=ev.exact)
+        sub.offset = None if ev.offset is None else [ev.offset[i]]
+        out.append(sub)
+    return out
+
+
+def _drift(h: Hypothesis, p, firm_good, ev, channels, st, jac=None) -> dict | None:
+    """Fit ``h`` on each recording of ``ev`` alone and tell whether its parameters drift between them.
+
+    Each recording's fit starts at the pooled fit ``p``: with ``jac`` (the pooled Jacobian in the
+    fitting variable) it takes chord steps with that recording's rows of it; otherwise finite
+    differences, and the candidate's best screening-grid point on that recording is a second start
+    (the lower residual wins); ``st.drift_nfev`` evaluations each.
+
+    Criterion, per parameter that is identifiable in the pooled fit (``firm_good``) and per pair of
+    recordings ``a``, ``b``: the estimates differ by more than ``st.drift_sigma`` combined standard
+    deviations and by more than ``st.drift_rel_tol`` of their value; in ``log p`` for a positive
+    parameter::
+
+        |ln p_a - ln p_b| > max(drift_sigma * sqrt((s_a / p_a)^2 + (s_b / p_b)^2), ln(1 + drift_rel_tol))
+
+    The first condition alone would reject on the small standard deviations of long records, which
+    the residual's correlation makes optimistic; the second alone would reject parameters a
+    recording barely sees.
+
+    Returns
+    -------
+    dict or None
+        ``per_recording`` (name -> list of values), ``std`` (name -> list), ``drifting`` (names) and
+        ``text``; None with fewer than two recordings or a recording the candidate cannot simulate.
+    """
+    subs = _per_recording(ev)
+    if len(subs) < 2:
+        return None
+    p = np.asarray(p, dtype=float)
+    parts = [_safe_residual(h, sub, channels, p) for sub in subs]
+    if any(r is None for r in parts):
+        return None
+    sizes = np.cumsum([0] + [r.size for r in parts])
+    use_jac = jac is not None and jac.shape[0] == sizes[-1]
+    start = h.start
+    estimates, stds = [], []
+    try:
+        for k, sub in enumerate(subs):
+            rows = slice(sizes[k], sizes[k + 1])
+            starts = [p]
+            if not use_jac and h.screen_grid:
+                # a resonance's residual has a local minimum per mode it can tune to: the recording's own
+                # best grid point is a second start (a 4 kg mass fitted from a pooled 13 kg stays there)
+                grid = [np.atleast_1d(np.asarray(g, dtype=float)) for g in h.screen_grid]
+                grid = [g for g in grid if g.size == p.size]
+                rss = [_safe_residual(h, sub, channels, g) for g in grid]
+                rss = [math.inf if r is None else float(r @ r) for r in rss]
+                if grid and math.isfinite(min(rss)):
+                    starts.append(grid[int(np.argmin(rss))])
+            best = None
+            for p_start in starts:
+                h.start = np.clip(p_start, h.lower, h.upper)
+                p_k, s_k, rss_k, _, _ = _fit(
+                    h, sub, channels, st.drift_nfev, jac=(lambda x, j=jac[rows]: j) if use_jac else None
+                )
+                if best is None or rss_k < best[2]:
+                    best = (p_k, s_k, rss_k)
+            estimates.append(best[0])
+            stds.append(best[1])
+    finally:
+        h.start = start
+    est, sd = np.array(estimates), np.array(stds)
+    drifting = []
+    for j, name in enumerate(h.names):
+        if not firm_good[j]:
+            continue
+        for a in range(len(subs)):
+            for b in range(a + 1, len(subs)):
+                pa, pb, sa, sb = est[a, j], est[b, j], sd[a, j], sd[b, j]
+                if not (np.isfinite(sa) and np.isfinite(sb)):
+                    continue
+                if pa > 0 and pb > 0:
+                    d, sigma = abs(math.log(pa / pb)), math.hypot(sa / pa, sb / pb)
+                    tol = math.log1p(st.drift_rel_tol)
+                else:
+                    ref = max(abs(pa), abs(pb), 1e-300)
+                    d, sigma, tol = abs(pa - pb) / ref, math.hypot(sa, sb) / ref, st.drift_rel_tol
+                if d > max(st.drift_sigma * sigma, tol) and name not in drifting:
+                    drifting.append(name)
+    text = "; ".join(
+        f"{n}: " + ", ".join(f"{v:.3g} +- {e:.2g}" for v, e in zip(est[:, j], sd[:, j], strict=True))
+        for j, n in enumerate(h.names)
+        if n in drifting
+    )
+    return {
+        "per_recording": {n: est[:, j].tolist() for j, n in enumerate(h.names)},
+        "std": {n: sd[:, j].tolist() for j, n in enumerate(h.names)},
+        "drifting": drifting,
+        "text": text,
+    }
 
 
 def _decay_time(lin, factor: float = 5.0, floor_s: float = 4.0) -> float:
@@ -523,13 +647,16 @@ def _fit_together(
     for k, h in enumerate(members):
         mine = [j for j, (i, _) in enumerate(comp.specs) if i == k]
         std_k = np.zeros(len(h.names))
+        bound_k = np.zeros(len(h.names), dtype=bool)
         for j in mine:
             std_k[h.names.index(comp.specs[j][1])] = std[j]
+            bound_k[h.names.index(comp.specs[j][1])] = at_bound[j]
         firm = [j for j in mine if comp.specs[j][1] not in h.may_vanish]
         rec = {
             "h": h,
             "p": values[k],
             "std": std_k,
+            "at_bound": bound_k,
             "rss": rss,
             "aic": _aic(rss, p.size, n_eff),
             "identifiable": bool(np.all(good[firm]) and np.any(good[mine])),
@@ -572,6 +699,143 @@ def _fit_together(
         for f in out
     ]
     return [f for f in out if f["rejected"] is None]
+
+
+def _finding(h, p, std, at_bound, flags, band_hz, level_dependent, explanation, fit) -> Finding:
+    """Return the :class:`Finding` of hypothesis ``h`` at ``p``; a parameter at its bound is flagged."""
+    params = {
+        n: {"value": float(v), "unit": u, "std": float(s_), "at_bound": bool(b)}
+        for n, v, u, s_, b in zip(h.names, p, h.units, std, at_bound, strict=True)
+    }
+    bound = [
+        f"{n} ended at its bound ({v['value']:.3g} {v['unit']}): the data do not determine it"
+        for n, v in params.items()
+        if v["at_bound"]
+    ]
+    return Finding(
+        physics=h.physics,
+        location={"sensors": list(h.sensors), "component": h.component, "interface": h.interface},
+        band_hz=band_hz,
+        level_dependent=level_dependent,
+        explanation=explanation,
+        parameters=params,
+        fit=fit,
+        flags=tuple(bound) + tuple(flags),
+    )
+
+
+def _final_refit(records, accepted, build, ev, channels, gains, st, say) -> dict | None:
+    """Refit the linear findings carried into the model together; judge them again.
+
+    Each finding was fitted in its round against the model of that round; later findings can take
+    over part of its effect (a drive linkage's mass standing in for tank mounts that round 1 lacked).
+    All parameters of the linear findings carried into the model (``records`` whose ``accepted`` entry
+    is a linear hypothesis) are fitted together from their values (:class:`CompositeHypothesis` on the
+    nominal model plus the other findings), on ``ev``. Each member is judged again: a parameter at a
+    bound (within 1 % of its log range), a firm parameter not identifiable (relative std above
+    ``max_relative_std``) and (with two
+    or more recordings) parameters that drift between the recordings (:func:`_drift`) are flagged.
+
+    Returns
+    -------
+    dict or None
+        ``members`` (the records), ``values``, ``std``, ``at_bound`` (per member, its parameter
+        order), ``flags`` (per member, sentences), ``rss_before``/``rss_after`` (training residual at
+        the rounds' values and after the refit) and ``meta``; None with fewer than two linear findings
+        or when they cannot be combined.
+    """
+    from ..physics import entry
+    from .rig_hypotheses import CompositeHypothesis
+
+    members = [r for r in records if r["accepted"] is not None and r["h"].kind_linear]
+    if len(members) < 2:
+        return None
+    mine = {r["accepted"] for r in members}
+
+    def build_rest():
+        model = build()
+        for k, (name, loc, values) in enumerate(accepted):
+            if k not in mine:
+                entry(name).apply(model, loc, **values)
+        return model
+
+    for r in members:
+        h = r["h"]
+        values = accepted[r["accepted"]][2]
+        lower = np.where((h.lower <= 0) & (h.upper > 0), h.upper * 1e-6, h.lower)
+        h.start = np.clip([values[n] for n in h.names], lower * 1.001, h.upper * 0.999)
+    labels = [r["h"].label for r in members]
+    say(f"final joint refit of the {len(members)} linear findings: {', '.join(labels)}")
+    try:
+        comp = CompositeHypothesis([r["h"] for r in members], build_rest)
+    except Exception as exc:  # noqa: BLE001 - entries that cannot be combined: no refit
+        say(f"the findings cannot be refitted together: {exc}")
+        return None
+    comp.base_gains = gains
+    r0 = _safe_residual(comp, ev, channels, comp.start)
+    if r0 is None:
+        return None
+    info = {}
+    p, std, rss, at_bound, nfev = _fit(comp, ev, channels, st.final_nfev, info=info)
+    # at a bound: within 1 % of the parameter's (log) range of it (the solver stops short of the bound
+    # when the residual flattens there, e.g. a mass the data do not want running to its lower bound)
+    _, lo, hi = log_bounds(comp)
+    x, margin = to_x(comp, p), 0.01 * (hi - lo)
+    at_bound = at_bound | (x <= lo + margin) | (x >= hi - margin)
+    rel_std = np.abs(std) / np.maximum(np.abs(p), 1e-300)
+    good = (rel_std < st.max_relative_std) & ~at_bound
+    drift = None
+    if st.drift_check and math.isfinite(rss) and len(getattr(ev, "recs", ())) > 1:
+        drift = _drift(comp, p, good, ev, channels, st, info.get("jac"))
+    values = comp.member_values(p)
+    out_std, out_bound, out_flags = [], [], []
+    for k, r in enumerate(members):
+        h = r["h"]
+        spec = {n: j for j, (i, n) in enumerate(comp.specs) if i == k}
+        std_k = np.array([std[spec[n]] for n in h.names])
+        bound_k = np.array([bool(at_bound[spec[n]]) for n in h.names])
+        flags = []
+        weak = [n for n in h.names if n not in h.may_vanish and not good[spec[n]] and not at_bound[spec[n]]]
+        if weak:
+            flags.append(
+                "not identifiable in the final joint refit of all findings: "
+                + ", ".join(f"{n} (relative std {rel_std[spec[n]]:.2g})" for n in weak)
+            )
+        if drift is not None:
+            moved = [n for n in h.names if comp.names[spec[n]] in drift["drifting"]]
+            if moved:
+                flags.append(
+                    "drifts between the training recordings in the final joint refit: "
+                    + "; ".join(
+                        f"{n} " + ", ".join(f"{v:.3g}" for v in drift["per_recording"][comp.names[spec[n]]])
+                        for n in moved
+                    )
+                )
+        out_std.append(std_k)
+        out_bound.append(bound_k)
+        out_flags.append(flags)
+    rss0 = float(r0 @ r0)
+    meta = {
+        "members": labels,
+        "train_residual_before": rss0,
+        "train_residual_after": rss,
+        "nfev": nfev,
+        "parameters": {n: float(v) for n, v in zip(comp.names, p, strict=True)},
+        "at_bound": [n for n, b in zip(comp.names, at_bound, strict=True) if b],
+        "flags": {lab: f for lab, f in zip(labels, out_flags, strict=True) if f},
+    }
+    if drift is not None:
+        meta["per_recording"] = drift["per_recording"]
+    return {
+        "members": members,
+        "values": values,
+        "std": out_std,
+        "at_bound": out_bound,
+        "flags": out_flags,
+        "rss_before": rss0,
+        "rss_after": rss if math.isfinite(rss) else math.inf,
+        "meta": meta,
+    }
 
 
 def _hypotheses(cand, ctx) -> list:
@@ -626,6 +890,7 @@ def _fit_on_distortion(cands, ctx, ev_d, ev_time, channels, system, gains, st, s
             "rss": rss,
             "aic": _aic(rss, p.size, n_eff),
             "identifiable": bool(np.all(good[firm]) and np.any(good)),
+            "at_bound": at_bound,
             "improvement": 1.0 - math.sqrt(rss / rss0) if math.isfinite(rss) and rss0 > 0 else -1.0,
             "error_after": math.sqrt(rss_time / len(ev_time.recs)) if r_time is not None else 1e9,
             "rss_time": rss_time,
@@ -683,7 +948,7 @@ def _polish(f: dict, ev: _Evaluator, channels, recs, st, say) -> None:
     firm = np.array([n not in h.may_vanish for n in h.names])
     good = (rel_std < st.max_relative_std) & ~at_bound
     if np.all(good[firm]) and np.any(good):
-        f.update(p=p, std=std, rss_time=rss, polished=True)
+        f.update(p=p, std=std, rss_time=rss, polished=True, at_bound=at_bound)
 
 
 def _batch(ok, max_batch: int) -> list:
@@ -915,6 +1180,7 @@ def diagnose_rig(
         return Diagnosis(False, [], [], meta)
 
     findings, unexplained = [], []
+    records = []  # per finding: its hypothesis, place in ``accepted``, systems before/after its round
     distortion = _distortion_shares(train_recs + hold_recs)
     if distortion is not None:
         meta["nonlinear_share"] = dict(zip(channels, np.round(distortion[0], 5).tolist(), strict=True))
@@ -1037,6 +1303,8 @@ def diagnose_rig(
                     "aic": _aic(rss, p.size, n_eff),
                     # every firm parameter identifiable, and at least one parameter
                     "identifiable": bool(np.all(good[firm]) and np.any(good)),
+                    "good": good,
+                    "at_bound": at_bound,
                     "improvement": 1.0 - math.sqrt(rss / rss0),
                     "error_after": math.sqrt(rss_time / len(train_recs)),
                     "rss_time": rss_time,
@@ -1054,6 +1322,15 @@ def diagnose_rig(
                 f["rejected"] = "the fitted model switches the response off"
             else:
                 f["rejected"] = None
+        if st.drift_check and len(train_recs) > 1:
+            for f in fitted:
+                if f["rejected"] is None and f["h"].kind_linear:
+                    f["drift"] = _drift(f["h"], f["p"], f["good"], ev_fit, channels, st)
+                    if f["drift"] is not None and f["drift"]["drifting"]:
+                        f["rejected"] = (
+                            f"its parameters drift between the training recordings ({f['drift']['text']})"
+                        )
+                        say(f"{f['h'].label}: {f['rejected']}")
         meta["candidates"] += [
             {
                 "round": round_no + 1,
@@ -1067,6 +1344,7 @@ def diagnose_rig(
                 "training_error_after": round(f["error_after"], 4),
                 "response_ratio": round(f["response_ratio"], 4),
                 "parameters": dict(zip(f["h"].names, np.round(f["p"], 6).tolist(), strict=True)),
+                **({"per_recording": f["drift"]["per_recording"]} if f.get("drift") else {}),
             }
             for f in fitted
         ]
@@ -1178,30 +1456,37 @@ def diagnose_rig(
             break
         if len(batch) > 1:
             fit["together_with"] = [f["h"].label for f in batch]  # the fit is that of the whole round
+        k_accepted = n_accepted
         for f in batch:
             h, p = f["h"], f["p"]
-            params = {
-                n: {"value": float(v), "unit": u, "std": float(s_)}
-                for n, v, u, s_ in zip(h.names, p, h.units, f["std"], strict=True)
-            }
+            lin_before, lin_after = getattr(sys_before, "lin", sys_before), getattr(sys_r, "lin", sys_r)
+            at_bound = np.asarray(f.get("at_bound", np.zeros(len(h.names), bool)), dtype=bool)
             findings.append(
-                Finding(
-                    physics=h.physics,
-                    location={"sensors": list(h.sensors), "component": h.component, "interface": h.interface},
-                    band_hz=band_hz,
-                    level_dependent=level_dependent,
-                    explanation=_explain(
-                        h,
-                        p,
-                        f["std"],
-                        getattr(sys_before, "lin", sys_before),
-                        getattr(sys_r, "lin", sys_r),
-                        located,
-                    ),
-                    parameters=params,
-                    fit=fit,
+                _finding(
+                    h,
+                    p,
+                    f["std"],
+                    at_bound,
+                    (),
+                    band_hz,
+                    level_dependent,
+                    _explain(h, p, f["std"], lin_before, lin_after, located),
+                    fit,
                 )
             )
+            records.append(
+                {
+                    "h": h,
+                    "finding": len(findings) - 1,
+                    # the entry's place in ``accepted`` (None: carried as output gains)
+                    "accepted": None if h.carry == "gains" else k_accepted,
+                    "lin_before": lin_before,
+                    "lin_after": lin_after,
+                    "located": located,
+                }
+            )
+            if h.carry != "gains":
+                k_accepted += 1
         say(
             f"finding {len(findings)}: {' + '.join(f['h'].label for f in batch)}, held-out error "
             f"{fit['holdout_before']:.4f} -> {fit['holdout_after']:.4f}"
@@ -1211,6 +1496,74 @@ def diagnose_rig(
         meta["rounds"].append({"round": round_no + 1, "candidates": len(hyps), "wall_s": round(round_s, 1)})
         if not significant.any():
             break
+    if st.final_refit and len(records) > 1:
+        # 4b the linear findings refitted together, and judged again ------------------------------
+        error_now = float(np.mean([summary_error(e) for e in ev_train.errors(sims_tr)]))
+        ev_final = ev_spectral if error_now > st.spectral_above_error else ev_train
+        refit = _final_refit(records, accepted, build, ev_final, channels, gains_r, st, say)
+        if refit is not None:
+            hold_before = float(np.mean([summary_error(e) for e in ev_hold.errors(sims_ho)]))
+            saved = list(accepted)
+            refit["meta"]["holdout_before"] = hold_before
+            refit["meta"]["evaluator"] = (
+                "log transmissibilities" if ev_final is ev_spectral else "time histories"
+            )
+
+            def rebuild():
+                nonlocal model_r, locations, markers, sys_r
+                model_r = build_current()
+                locations, markers, sys_r = assembled(model_r)
+                _set_offsets(evaluators, sys_r)
+                return compare(sys_r, gains_r)
+
+            adopted = False
+            if refit["rss_after"] < refit["rss_before"]:
+                for r, p_new in zip(refit["members"], refit["values"], strict=True):
+                    accepted[r["accepted"]] = r["h"].carried(p_new)
+                new = rebuild()
+                hold_after = float(np.mean([summary_error(e) for e in ev_hold.errors(new[1])]))
+                refit["meta"]["holdout_after"] = hold_after
+                adopted = hold_after <= hold_before
+                if adopted:
+                    sims_tr, sims_ho, maps, significant = new
+                else:
+                    accepted[:] = saved
+                    sims_tr, sims_ho, maps, significant = rebuild()
+            refit["meta"]["adopted"] = adopted
+            say(
+                "final joint refit of "
+                + ", ".join(r["h"].label for r in refit["members"])
+                + (
+                    ": adopted"
+                    if adopted
+                    else ": not adopted (it does not lower both the training residual "
+                    "and the held-out error), the rounds' values kept"
+                )
+            )
+            if adopted:
+                per_member = (
+                    refit["members"],
+                    refit["values"],
+                    refit["std"],
+                    refit["at_bound"],
+                    refit["flags"],
+                )
+                for r, p_new, std_new, bound_new, flags in zip(*per_member, strict=True):
+                    old = findings[r["finding"]]
+                    text = _explain(r["h"], p_new, std_new, r["lin_before"], r["lin_after"], r["located"])
+                    findings[r["finding"]] = _finding(
+                        r["h"],
+                        p_new,
+                        std_new,
+                        bound_new,
+                        flags,
+                        old.band_hz,
+                        old.level_dependent,
+                        text + " (Values from the final joint refit of all findings; the modes named are "
+                        "those the finding moved in its round.)",
+                        old.fit,
+                    )
+            meta["final_refit"] = refit["meta"]
     if significant.any():
         unexplained.append(
             _unexplained(

@@ -14,7 +14,11 @@ Both the chassis path (:mod:`exudyn_study.diagnose.rig`) and the generic path
           "band_hz": [8.0, 70.0],
           "level_dependent": true,
           "explanation": "plain language ...",
-          "parameters": {"slip_share": {"value": 0.6, "unit": "1", "std": 0.02}, ...},
+          "parameters": {"slip_share": {"value": 0.6, "unit": "1", "std": 0.02,
+                                        "at_bound": false}, ...},   # at_bound optional (false)
+          "flags": ["..."],                 # optional: doubts about the finding (a parameter at a
+                                            # bound, not identifiable in the final joint refit,
+                                            # drifting between recordings); default []
           "fit": {"train_before": 0.41, "train_after": 0.06, "holdout_before": 0.52,
                   "holdout_after": 0.08, "metric": "...",   # the five required keys
                   "per_channel": {...}}                      # optional detail
@@ -93,6 +97,12 @@ def _number(v, who: str, allow_none: bool = True):
     return x if math.isfinite(x) else None
 
 
+def _flag(v, who: str) -> bool:
+    if not isinstance(v, bool):
+        raise InputError(f"{who}: {v!r}; expected true or false")
+    return v
+
+
 @dataclass(frozen=True)
 class Finding:
     """One located mismatch explained by a modelled physics.
@@ -109,12 +119,16 @@ class Finding:
         Whether the mismatch changes with the excitation level.
     explanation : str
         Plain-language explanation.
-    parameters : mapping name -> {'value', 'unit', 'std'}
-        Fitted parameters (SI; ``std`` None if unknown).
+    parameters : mapping name -> {'value', 'unit', 'std', 'at_bound'}
+        Fitted parameters (SI; ``std`` None if unknown; ``at_bound`` optional, default False: the fit
+        ended at the parameter's bound, so the data do not determine it).
     fit : mapping
         ``train_before``, ``train_after``, ``holdout_before``, ``holdout_after`` (errors of the
         nominal and the augmented model, None if not computed) and ``metric`` (str, what the
         error is); optional extra keys (e.g. ``per_channel``) are kept.
+    flags : sequence of str, optional
+        Doubts about the finding that did not reject it, one sentence each (a parameter at its
+        bound, not identifiable in the final joint refit, drifting between recordings).
 
     Raises
     ------
@@ -129,6 +143,7 @@ class Finding:
     explanation: str
     parameters: Mapping = field(default_factory=dict)
     fit: Mapping = field(default_factory=dict)
+    flags: tuple = ()
 
     def __post_init__(self) -> None:
         if not isinstance(self.physics, str) or not self.physics:
@@ -147,6 +162,7 @@ class Finding:
                 "value": _number(p["value"], f"{who}: parameter {name!r} value", False),
                 "unit": str(p["unit"]),
                 "std": _number(p.get("std"), f"{who}: parameter {name!r} std"),
+                "at_bound": _flag(p.get("at_bound", False), f"{who}: parameter {name!r} at_bound"),
             }
         object.__setattr__(self, "parameters", params)
         fit = dict(self.fit)
@@ -158,6 +174,9 @@ class Finding:
         if not isinstance(fit["metric"], str):
             raise InputError(f"{who}: fit metric {fit['metric']!r}; expected a description string")
         object.__setattr__(self, "fit", fit)
+        if isinstance(self.flags, str) or not all(isinstance(t, str) for t in self.flags):
+            raise InputError(f"{who}: flags {self.flags!r}; expected a list of sentences (strings)")
+        object.__setattr__(self, "flags", tuple(self.flags))
 
     def to_dict(self) -> dict:
         """JSON-ready dict of the module schema."""
@@ -169,6 +188,7 @@ class Finding:
             "explanation": self.explanation,
             "parameters": {k: dict(v) for k, v in self.parameters.items()},
             "fit": _jsonable(self.fit),
+            "flags": list(self.flags),
         }
 
     @classmethod
@@ -180,7 +200,7 @@ class Finding:
         missing = [k for k in keys if k not in d]
         if missing:
             raise InputError(f"finding {d.get('physics', '?')!r}: missing keys {missing}")
-        return cls(**{k: d[k] for k in keys})
+        return cls(**{k: d[k] for k in keys}, flags=tuple(d.get("flags", ())))
 
 
 @dataclass(frozen=True)

@@ -288,8 +288,31 @@ def test_schema_round_trip_and_atomic_write(tmp_path):
         "explanation",
         "parameters",
         "fit",
+        "flags",
     }
     assert set(doc["findings"][0]["location"]) == {"sensors", "component", "interface"}
+    assert all(p["at_bound"] is False for p in doc["findings"][0]["parameters"].values())
+
+
+def test_schema_carries_parameter_at_bound_and_finding_flags():
+    """``at_bound`` per parameter (default False) and the finding's ``flags`` survive a round trip; a
+    file written before they existed (without them) still reads."""
+    f = _finding()
+    name = next(iter(f.parameters))
+    params = {n: dict(v) for n, v in f.parameters.items()}
+    params[name]["at_bound"] = True
+    flagged = _finding(parameters=params, flags=("a parameter ends at its bound",))
+    back = Finding.from_dict(flagged.to_dict())
+    assert back.parameters[name]["at_bound"] is True and back.flags == ("a parameter ends at its bound",)
+    old = f.to_dict()
+    del old["flags"]
+    for v in old["parameters"].values():
+        del v["at_bound"]
+    assert Finding.from_dict(old) == f
+    with pytest.raises(InputError, match="at_bound"):
+        _finding(parameters={name: {**params[name], "at_bound": "yes"}})
+    with pytest.raises(InputError, match="flags"):
+        _finding(flags="at a bound")
 
 
 def test_schema_rejects_incomplete_input():
