@@ -117,7 +117,7 @@ class RigDiagnosisSettings:
     drift_check: bool = True
     drift_sigma: float = 3.0
     drift_rel_tol: float = 0.25
-    drift_nfev: int = 15
+    drift_nfev: int = 10
     # after the rounds, the linear findings carried into the model are refitted together (all their
     # parameters; spectral or time domain as the rounds' last fit) and judged again; the refit is kept
     # if it lowers the training residual and does not raise the held-out error
@@ -364,8 +364,8 @@ def _drift(h: Hypothesis, p, firm_good, ev, channels, st, jac=None) -> dict | No
 
     Each recording's fit starts at the pooled fit ``p``: with ``jac`` (the pooled Jacobian in the
     fitting variable) it takes chord steps with that recording's rows of it; otherwise finite
-    differences, and the candidate's best screening-grid point on that recording is a second start
-    (the lower residual wins); ``st.drift_nfev`` evaluations each.
+    differences, and (one-parameter candidates) the best point of the candidate's screening grid on
+    that recording is a second start (the lower residual wins); ``st.drift_nfev`` evaluations each.
 
     Criterion, per parameter that is identifiable in the pooled fit (``firm_good``) and per pair of
     recordings ``a``, ``b``: the estimates differ by more than ``st.drift_sigma`` combined standard
@@ -399,7 +399,7 @@ def _drift(h: Hypothesis, p, firm_good, ev, channels, st, jac=None) -> dict | No
         for k, sub in enumerate(subs):
             rows = slice(sizes[k], sizes[k + 1])
             starts = [p]
-            if not use_jac and h.screen_grid:
+            if not use_jac and h.screen_grid and len(h.names) == 1:
                 # a resonance's residual has a local minimum per mode it can tune to: the recording's own
                 # best grid point is a second start (a 4 kg mass fitted from a pooled 13 kg stays there)
                 grid = [np.atleast_1d(np.asarray(g, dtype=float)) for g in h.screen_grid]
@@ -560,7 +560,8 @@ def _fit_together(
         if not h.kind_linear or h.carry != "model" or h.physics == "added_mass":
             continue
         place = (h.physics, h.location)
-        if place in places or h.component in {m.component for m in members if m.physics == h.physics}:
+        same = {m.component for m in members if m.physics == h.physics and h.one_per_component}
+        if place in places or h.component in same:
             continue
         places.add(place)
         members.append(h)
@@ -1323,8 +1324,15 @@ def diagnose_rig(
             else:
                 f["rejected"] = None
         if st.drift_check and len(train_recs) > 1:
-            for f in fitted:
-                if f["rejected"] is None and f["h"].kind_linear:
+            # only the fits the round would take (the best acceptable one and its batch; a fit rejected
+            # here lets the next one in): each check costs about one fit per recording
+            while True:
+                ok = sorted((f for f in fitted if f["rejected"] is None), key=lambda f: f["aic"])
+                todo = [f for f in (_batch(ok, st.max_batch) if ok else []) if "drift" not in f]
+                todo = [f for f in todo if f["h"].kind_linear]
+                if not todo:
+                    break
+                for f in todo:
                     f["drift"] = _drift(f["h"], f["p"], f["good"], ev_fit, channels, st)
                     if f["drift"] is not None and f["drift"]["drifting"]:
                         f["rejected"] = (

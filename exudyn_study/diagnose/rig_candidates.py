@@ -485,6 +485,7 @@ def _rear_support(ctx: CandidateContext):
                 screen_grid=REAR_SUPPORT_SCREEN,
                 may_vanish=("damping_time_s",),
                 neutral=dict(REAR_SUPPORT_RIGID),
+                one_per_component=False,  # both supports may be compliant (and are, in the thesis truth)
             )
         )
     return out

@@ -103,6 +103,10 @@ class Hypothesis:
     #: joint at its stiffest, a damping factor of one); a joint fit tests each member against the
     #: others refitted with it there (None: the member cannot be taken out)
     neutral: dict | None = None
+    #: a joint fit takes at most one candidate of this physics per component (two joints of one
+    #: component trade off against each other); False: each of its locations may join (the frame's two
+    #: rear supports, which a symmetric structure needs together)
+    one_per_component: bool = True
 
     def system(self, p) -> LinearSystem:  # pragma: no cover - abstract
         """Return the candidate's system at parameters ``p`` (a LinearSystem or NonlinearSystem)."""

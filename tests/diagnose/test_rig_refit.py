@@ -148,3 +148,35 @@ def test_a_candidate_whose_parameters_drift_between_recordings_is_rejected(bodie
         assert per[0] == pytest.approx(12.0, rel=0.1) and per[1] == pytest.approx(4.0, rel=0.15)
         assert "drift" in at[0]["rejected"]
         assert not any(f.physics == "added_mass" and "ARFHZ" in f.location["sensors"] for f in d.findings)
+
+
+def test_both_soft_rear_supports_are_found_and_refitted_together(bodies):
+    """Both rear supports on vertical springs (5e6 and 8e6 N/m): each is found at its side, and after the
+    final joint refit (adopted) both stiffnesses are within 10 % and unflagged."""
+    from exudyn_study.diagnose.rig import RigDiagnosisSettings, diagnose_rig
+
+    truth = {"rear_left": 5e6, "rear_right": 8e6}
+    sc = _scenario(
+        tuple(
+            Augment(
+                "rear_support_compliance", side, {"vertical_stiffness_n_per_m": k, "damping_time_s": 2e-4}
+            )
+            for side, k in truth.items()
+        )
+    )
+    kw = {"bodies": bodies, "sensors": FRAME_SENSORS}
+    train = virtual_recording(sc, "white-noise", DURATION_S, **kw)
+    hold = virtual_recording(sc, "test", DURATION_S, **kw)
+    st = RigDiagnosisSettings()
+    st.train_duration_s, st.screen_duration_s = 12.0, 8.0
+    d = diagnose_rig(
+        1, [train], [hold], damping="constant-2", bodies=bodies, sensors=FRAME_SENSORS, settings=st
+    )
+    found = {f.location["interface"]: f for f in d.findings if f.physics == "rear_support_compliance"}
+    assert set(found) == {"foundation_rear_left", "foundation_rear_right"}, [f.physics for f in d.findings]
+    for side, k in truth.items():
+        f = found[f"foundation_{side}"]
+        assert f.parameters["vertical_stiffness_n_per_m"]["value"] == pytest.approx(k, rel=0.1)
+        assert not f.parameters["vertical_stiffness_n_per_m"]["at_bound"]
+        assert not any("not identifiable" in t or "drift" in t for t in f.flags)
+    assert d.metadata["final_refit"]["members"]
