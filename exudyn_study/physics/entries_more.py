@@ -341,27 +341,30 @@ def rubber_pad_location_check(entry_name: str):
     return check
 
 
-def _rubber_faces(body, count: int = 8) -> tuple[np.ndarray, np.ndarray]:
-    """Well-spread nodes of the rubber pad's frame-side and bracket-side faces (pad normal: ``y``)."""
+def _rubber_face_nodes(body) -> tuple[np.ndarray, np.ndarray, int]:
+    """All nodes of the rubber pad's frame-side and bracket-side faces, and the pad normal's axis (``y``)."""
     nodes = np.asarray(body.region_nodes[_RUBBER_REGION], dtype=int)
     x = np.asarray(body.node_positions_m)[nodes]
     normal = int(np.argmin(np.ptp(x, axis=0)))
     depth = np.abs(x[:, normal])  # the pad sits on the side-member web: |y| grows outwards
     tol = 1e-3 * max(float(np.ptp(x)), 1e-9) + 1e-6
-    inner = nodes[depth <= depth.min() + tol]
-    outer = nodes[depth >= depth.max() - tol]
+    return nodes[depth <= depth.min() + tol], nodes[depth >= depth.max() - tol], normal
+
+
+def _rubber_faces(body, count: int = 8) -> tuple[np.ndarray, np.ndarray]:
+    """Well-spread nodes of the rubber pad's frame-side and bracket-side faces (pad normal: ``y``)."""
+    inner, outer, _ = _rubber_face_nodes(body)
     pick = [f[_spread(np.asarray(body.node_positions_m)[f], count)] for f in (inner, outer)]
     return pick[0], pick[1]
 
 
-def _pad_quadrants(body, face: np.ndarray, count: int) -> list[np.ndarray]:
+def _pad_quadrants(body, face: np.ndarray, normal: int, count: int) -> list[np.ndarray]:
     """Split a pad face's nodes into its four quadrants (about the face centre, in the face plane).
 
-    Returns ``count`` well-spread nodes of each quadrant, in the order (-,-), (-,+), (+,-), (+,+)
-    of the two in-plane axes.
+    ``normal``: the axis of the pad's normal. Returns ``count`` well-spread nodes of each
+    quadrant, in the order (-,-), (-,+), (+,-), (+,+) of the two in-plane axes.
     """
     x = np.asarray(body.node_positions_m)[face]
-    normal = int(np.argmin(np.ptp(x, axis=0)))
     a, b = [k for k in range(3) if k != normal]
     centre = x.mean(axis=0)
     out = []
@@ -394,10 +397,10 @@ def _add_bushing_stiffening(model, location, params: dict) -> dict:
         added.update(frame_side_marker=m_frame, bracket_side_marker=m_bracket)
     k3c = params["compression_cubic_stiffness_n_per_m3"]
     if k3c > 0.0:
-        inner, outer = _rubber_faces(body, count=10**6)  # every face node, then spread per quadrant
-        normal = int(np.argmin(np.ptp(np.asarray(body.node_positions_m)[inner], axis=0)))
+        inner, outer, normal = _rubber_face_nodes(body)
         law = CubicStiffening(k3c)
-        quads = zip(_pad_quadrants(body, inner, 6), _pad_quadrants(body, outer, 6), strict=True)
+        quads = zip(_pad_quadrants(body, inner, normal, 6), _pad_quadrants(body, outer, normal, 6),
+                    strict=True)
         for q, (a, b) in enumerate(quads):
             m_a, _ = _node_set_marker(model, body_name, a, rigid=False)
             m_b, _ = _node_set_marker(model, body_name, b, rigid=False)
