@@ -430,6 +430,90 @@ def test_bushing_stiffening_adds_odd_harmonics_growing_with_the_cube_of_the_leve
     assert lo["delta"][0] / lo["delta"][1] > d_nl / d_lin  # and the more so at the higher level
 
 
+def _pad_normal(model) -> np.ndarray:
+    from exudyn_study.physics.entries_more import _rubber_body
+
+    body = model.bodies[_rubber_body(model)].body
+    x = np.asarray(body.node_positions_m)[np.asarray(body.region_nodes["bracket_left_rubber"])]
+    return np.eye(3)[int(np.argmin(np.ptp(x, axis=0)))]
+
+
+def test_bushing_compression_term_is_off_by_default_and_adds_four_normal_elements(bodies3):
+    """The compression term: four cubic elements along the pad's normal, one per quadrant of the pad."""
+    model = _model3(bodies3)
+    entry("bushing_stiffening").apply(model, cubic_stiffness_n_per_m3=1e12)
+    assert [el.name for el in model.local_nonlinearities] == ["bushing_stiffening:z", "bushing_stiffening:x"]
+    model = _model3(bodies3)
+    entry("bushing_stiffening").apply(model, cubic_stiffness_n_per_m3=0.0,
+                                      compression_cubic_stiffness_n_per_m3=1e12)
+    elements = model.local_nonlinearities
+    assert [el.name for el in elements] == [f"bushing_stiffening:compression{q}" for q in range(4)]
+    normal = _pad_normal(model)
+    for el in elements:
+        assert np.allclose(el.direction, normal) and el.law.cubic_stiffness_n_per_m3 == 1e12
+    assert len({el.marker_a for el in elements}) == 4 and len({el.marker_b for el in elements}) == 4
+
+
+def test_bushing_compression_a_tilt_of_the_bracket_compresses_two_quadrants_and_opens_two(bodies3):
+    """The bracket's mode that tilts the pad most: its quadrant deltas have both signs and are much larger
+    than their mean (the pad's normal translation), so the compression term hardens the rocking; the mode
+    that compresses the pad most (the bracket moving along the normal) has all four of one sign."""
+    import scipy.linalg as sla
+
+    from exudyn_study import modal
+    from exudyn_study.physics.nonlinear import gather_vectors
+
+    model = _model3(bodies3)
+    entry("bushing_stiffening").apply(model, cubic_stiffness_n_per_m3=0.0,
+                                      compression_cubic_stiffness_n_per_m3=1e12)
+    lin = modal.linearize(model)
+    g = gather_vectors(model) @ lin.nullspace.T  # (4, n): quadrant compression per z
+    f, phi = _undamped(lin)
+    w2 = (TWO_PI * f) ** 2
+    band = np.flatnonzero((f > 1.0) & (f < 200.0))
+    d_modes = g @ phi[:, band]  # (4, n_band)
+    squeeze = band[int(np.argmax(np.abs(d_modes.mean(axis=0))))]
+    d = g @ phi[:, squeeze]
+    assert np.all(d > 0) or np.all(d < 0), d
+    k = band[int(np.argmax(np.linalg.norm(d_modes - d_modes.mean(axis=0), axis=0)))]
+    d = g @ phi[:, k]
+    assert k != squeeze and d.min() < 0.0 < d.max(), d
+    assert abs(d.mean()) < 0.5 * np.abs(d).max(), d
+    # first-order energy: a linear spring kt on each quadrant raises omega^2 by kt |G phi|^2
+    kt = 1e-3 * w2[k] / np.sum(d**2)
+    w2_spring = sla.eigh(lin.stiffness + kt * g.T @ g, lin.mass, eigvals_only=True)
+    assert w2_spring[k] - w2[k] == pytest.approx(kt * np.sum(d**2), rel=0.02)
+
+
+def test_bushing_compression_hardening_gives_odd_harmonics_growing_with_the_cube(bodies3):
+    from exudyn_study import modal
+    from exudyn_study.physics.nonlinear import CubicStiffening, gather_vectors
+
+    model = _model3(bodies3)
+    entry("bushing_stiffening").apply(model, cubic_stiffness_n_per_m3=0.0,
+                                      compression_cubic_stiffness_n_per_m3=2e13)
+    lin = modal.linearize(model)
+    gather = gather_vectors(model)
+    i = list(lin.sensor_names).index("ASVZ")
+    f0, seconds, ramp = 5.0, 3.0, 1.0
+    n = int(round((seconds - ramp) * RATE_HZ))
+    out = {}
+    for level in (1e-3, 2e-3):
+        drive = _sine(f0, level, seconds, ramp, smooth=True)
+        acc, d = _run(model, lin, gather, drive)
+        acc_lin, _ = _run(model, lin, gather, drive, [CubicStiffening(0.0)] * 4)
+        nl = acc[i] - acc_lin[i]
+        out[level] = {h: np.abs(_hann_harmonic(nl, h * f0, n)) for h in (1, 2, 3)}
+        out[level]["compression"] = max(np.abs(_hann_harmonic(dq, f0, n)) for dq in d)
+        out[level]["fund"] = np.abs(_hann_harmonic(acc[i], f0, n))
+    lo, hi = out[1e-3], out[2e-3]
+    assert hi[3] > 1e-3 * hi["fund"], hi  # a visible third harmonic at the bracket
+    motion = hi["compression"] / lo["compression"]
+    assert 1.8 < motion < 2.05
+    assert hi[3] / lo[3] == pytest.approx(motion**3, rel=0.1)
+    assert hi[2] < 0.05 * hi[3] and lo[2] < 0.05 * lo[3]  # no even harmonics
+
+
 # --------------------------------------------------------------------------------------- sloshing
 def test_sloshing_adds_the_tuned_horizontal_modes_and_keeps_mass_and_vertical_response(bodies3, nominal3):
     from exudyn_study import modal
