@@ -135,6 +135,52 @@ class BushingParameters:
         return k, as_matrix(self.damping, "damping")
 
 
+def unloaded_joint_markers(mbs, m0: int, m1: int, gap_m) -> tuple[int, int, list[float]]:
+    """Markers for a spring-damper across a joint whose two patch centres lie ``gap_m`` apart, and its offset.
+
+    The frame's and a component's patch centres of one joint lie apart (1 cm across the web on
+    the thesis chassis). ``ObjectConnectorRigidBodySpringDamper`` pulls its markers together
+    (force ``k (A0^T (p1 - p0) - offset)`` at each marker): with the patch markers themselves
+    and no offset it is preloaded by ``k`` times the gap (40 MN at 4e9 N/m: a spurious
+    geometric stiffness in the linearisation, and that force's round-off in its damping
+    matrix); with the gap as offset it is unloaded, but its force acts at two points the gap
+    apart (a stiffness not symmetric, of order ``k`` times the gap). So each side gets a copy
+    of its super-element marker moved to the mid-point between the centres (Exudyn's marker
+    offset moves with the body's reference frame, so each copy moves with its patch centre: the
+    5 mm lever of the patch's rotation is left out): no preload, no offset, and the spring and
+    damper act on one relative translation ``B`` (the patch centres' relative motion),
+    ``K = k B^T B`` and ``C = c B^T B``. Markers of another type (the constant-matrix element's
+    interface nodes) are kept, with the gap as offset.
+
+    Parameters
+    ----------
+    mbs : exudyn MainSystem
+    m0, m1 : int
+        The two patches' markers (``m1 - m0`` the spring's relative motion).
+    gap_m : array_like, shape (3,)
+        Position of patch centre 1 minus that of patch centre 0 at the reference (m).
+
+    Returns
+    -------
+    (marker 0, marker 1, offset [dx, dy, dz, 0, 0, 0])
+    """
+    import exudyn.itemInterface as eii
+
+    gap = np.asarray(gap_m, dtype=float)
+    markers = [mbs.GetMarker(m) for m in (m0, m1)]
+    if np.linalg.norm(gap) == 0.0 or any("SuperElementRigid" not in str(m["markerType"]) for m in markers):
+        return m0, m1, [float(v) for v in gap] + [0.0, 0.0, 0.0]
+    mid = []
+    for m, sign in zip(markers, (0.5, -0.5), strict=True):
+        mid.append(int(mbs.AddMarker(eii.MarkerSuperElementRigid(
+            bodyNumber=m["bodyNumber"], offset=[float(v) for v in np.asarray(m["offset"]) + sign * gap],
+            meshNodeNumbers=list(m["meshNodeNumbers"]), weightingFactors=list(m["weightingFactors"]),
+            useAlternativeApproach=m["useAlternativeApproach"],
+            rotationsExponentialMap=m["rotationsExponentialMap"],
+            visualization=eii.VMarkerSuperElementRigid(show=False)))))
+    return mid[0], mid[1], [0.0] * 6
+
+
 @dataclass
 class SensorAttachment:
     """Where a rig accelerometer sits in the model.
@@ -481,10 +527,14 @@ def build_model_from_bodies(
                 m0, m1 = frame.interface_markers[itf], handles[comp].interface_markers[itf]
                 if bushing is None:
                     joints[f"{comp}.{itf}"] = generic_joint(mbs, m0, m1, (1, 1, 1, 1, 1, 1), f"{comp}.{itf}")
-                else:
+                else:  # unloaded at the reference: the patch centres lie apart
+                    p_frame = interfaces[f"{frame_name}.{itf}"].position_m
+                    gap = interfaces[f"{comp}.{itf}"].position_m - p_frame
+                    s0, s1, offset = unloaded_joint_markers(mbs, m0, m1, gap)
                     joints[f"{comp}.{itf}"] = mbs.AddObject(eii.ObjectConnectorRigidBodySpringDamper(
-                        name=f"{comp}.{itf}", markerNumbers=[m0, m1], stiffness=k_mat.tolist(),
-                        damping=d_mat.tolist(), visualization=eii.VObjectConnectorRigidBodySpringDamper(show=False)))
+                        name=f"{comp}.{itf}", markerNumbers=[s0, s1], stiffness=k_mat.tolist(),
+                        damping=d_mat.tolist(), offset=offset,
+                        visualization=eii.VObjectConnectorRigidBodySpringDamper(show=False)))
 
     attachments = _attach_sensors(mbs, handles, chosen)
     meta = {

@@ -150,43 +150,20 @@ def _node_set_marker(model, body_name: str, nodes, rigid: bool) -> tuple[int, np
 def _mid_point_markers(model, m0: int, m1: int) -> tuple[int, int, list[float]]:
     """Markers for a spring-damper across a joint whose two patch centres lie apart, and its offset.
 
-    The frame's and a component's patch centres of one joint lie apart (1 cm across the web on
-    the thesis chassis). ``ObjectConnectorRigidBodySpringDamper`` pulls its markers together
-    (force ``k (A0^T (p1 - p0) - offset)`` at each marker): with the patch markers themselves
-    and no offset it is preloaded by ``k`` times the gap (40 MN at 4e9 N/m: a spurious
-    geometric stiffness in the linearisation, and that force's round-off in its damping
-    matrix); with the gap as offset it is unloaded, but its force acts at two points the gap
-    apart (a stiffness not symmetric, of order ``k`` times the gap). So each side gets a copy
-    of its super-element marker moved to the mid-point between the centres (Exudyn's marker
-    offset moves with the body's reference frame, so each copy moves with its patch centre: the
-    5 mm lever of the patch's rotation is left out): no preload, no offset, and the spring and
-    damper act on one relative translation ``B`` (the patch centres' relative motion),
-    ``K = k B^T B`` and ``C = c B^T B``. Markers of another type (the constant-matrix element's
-    interface nodes) are kept, with the gap as offset.
+    See :func:`exudyn_study.model.variants.unloaded_joint_markers` (the patch centres are the
+    model's interface positions).
 
     Returns
     -------
     (marker 0, marker 1, offset [dx, dy, dz, 0, 0, 0])
     """
-    import exudyn.itemInterface as eii
+    from ..model.variants import unloaded_joint_markers
 
     positions = {int(h.marker): np.asarray(h.position_m, dtype=float) for h in model.interfaces.values()}
     if m0 not in positions or m1 not in positions:
         raise InputError(f"joint markers {m0}, {m1}: not interface markers of the model; a component joint "
                          "joins two interface patches")
-    gap = positions[m1] - positions[m0]
-    markers = [model.mbs.GetMarker(m) for m in (m0, m1)]
-    if np.linalg.norm(gap) == 0.0 or any("SuperElementRigid" not in str(m["markerType"]) for m in markers):
-        return m0, m1, [float(v) for v in gap] + [0.0, 0.0, 0.0]
-    mid = []
-    for m, sign in zip(markers, (0.5, -0.5), strict=True):
-        mid.append(int(model.mbs.AddMarker(eii.MarkerSuperElementRigid(
-            bodyNumber=m["bodyNumber"], offset=[float(v) for v in np.asarray(m["offset"]) + sign * gap],
-            meshNodeNumbers=list(m["meshNodeNumbers"]), weightingFactors=list(m["weightingFactors"]),
-            useAlternativeApproach=m["useAlternativeApproach"],
-            rotationsExponentialMap=m["rotationsExponentialMap"],
-            visualization=eii.VMarkerSuperElementRigid(show=False)))))
-    return mid[0], mid[1], [0.0] * 6
+    return unloaded_joint_markers(model.mbs, m0, m1, positions[m1] - positions[m0])
 
 
 def _add_joint_stiffness(model, location: str, params: dict) -> dict:
