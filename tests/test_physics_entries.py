@@ -845,3 +845,40 @@ def test_rear_support_compliance_locations():
         entry("rear_support_compliance").apply(type("M", (), {"assembled": False})(), "rear")
     with pytest.raises(InputError, match=r"parameter vertical_stiffness_n_per_m = 10 N/m"):
         entry("rear_support_compliance").resolve(vertical_stiffness_n_per_m=10)
+
+
+def test_model3_bushing_joints_are_unloaded_at_the_reference(bodies3):
+    """Model 3's ``bushing=`` variant joins each component to the frame with a 6-DOF spring between the two
+    patch centres, which lie apart (1 cm on the chassis; here the tank is shifted 1 cm). At the reference
+    configuration the spring carries no force (before: ``k`` times the gap, 2e5 N at 2e7 N/m), and its
+    translational stiffness ``K(2 k) - K(k)`` is symmetric (a preload adds a non-symmetric geometric
+    stiffness)."""
+    import dataclasses
+
+    import exudyn as exu
+
+    from exudyn_study import modal
+    from exudyn_study.model import BushingParameters, build_model_from_bodies
+
+    tank = bodies3["tank_left"]
+    shift = np.array([0.0, 0.01, 0.0])
+    body = dataclasses.replace(tank.body, node_positions_m=np.asarray(tank.body.node_positions_m) + shift,
+                               interface_centers_m=np.asarray(tank.body.interface_centers_m) + shift)
+    bodies = {**bodies3, "tank_left": dataclasses.replace(tank, body=body)}
+    k_t = 2e7
+
+    def build(k):
+        model = build_model_from_bodies(bodies, 3, damping="constant-2", sensors=MODEL3_SENSORS, exudyn_mesh="used",
+                                        bushing=BushingParameters(stiffness=(k, k, k, 2e5, 2e5, 2e5)))
+        model.assemble()
+        return model
+
+    model = build(k_t)
+    gap = model.interfaces["tank_left.tank_left_front"].position_m - model.interfaces["frame.tank_left_front"].position_m
+    assert np.linalg.norm(gap) > 5e-3
+    force = np.asarray(model.mbs.GetObjectOutput(model.joints["tank_left.tank_left_front"],
+                                                 exu.OutputVariableType.ForceLocal))
+    assert np.abs(force).max() < 1e-6 * k_t * np.linalg.norm(gap)
+    spring = modal.linearize(build(2.0 * k_t)).stiffness - modal.linearize(model).stiffness
+    np.testing.assert_allclose(spring, spring.T, rtol=0, atol=1e-9 * np.abs(spring).max())
+    assert np.abs(spring).max() > 0.1 * k_t
