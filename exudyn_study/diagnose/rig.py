@@ -764,7 +764,9 @@ def _final_refit(records, accepted, build, ev, channels, gains, st, say) -> dict
         h = r["h"]
         values = accepted[r["accepted"]][2]
         lower = np.where((h.lower <= 0) & (h.upper > 0), h.upper * 1e-6, h.lower)
-        h.start = np.clip([values[n] for n in h.names], lower * 1.001, h.upper * 0.999)
+        # strictly inside the bounds (either sign)
+        inside = (lower + 1e-3 * np.abs(lower), h.upper - 1e-3 * np.abs(h.upper))
+        h.start = np.clip(h.fit_values(values), *inside)
     labels = [r["h"].label for r in members]
     say(f"final joint refit of the {len(members)} linear findings: {', '.join(labels)}")
     try:
@@ -898,6 +900,7 @@ def _fit_on_distortion(cands, ctx, ev_d, ev_time, channels, system, gains, st, s
             "response_ratio": ratio,
             "score": float(scores[i]),
             "nfev": nfev,
+            "on_distortion": True,
         }
         f["rejected"] = (
             "not identifiable"
@@ -1187,6 +1190,85 @@ def diagnose_rig(
         meta["nonlinear_share"] = dict(zip(channels, np.round(distortion[0], 5).tolist(), strict=True))
     sys_r, gains_r, model_r, located = lin0, ones, model, []
     _set_offsets(evaluators, sys_r)
+    refitted = None  # labels of the linear findings last refitted together
+
+    def final_refit_now() -> None:
+        """4b the linear findings refitted together and judged again (once per set of them)."""
+        nonlocal sims_tr, sims_ho, maps, significant, refitted
+        linear = tuple(r["h"].label for r in records if r["accepted"] is not None and r["h"].kind_linear)
+        if not st.final_refit or len(records) < 2 or linear == refitted:
+            return
+        refitted = linear
+        t_refit = time.perf_counter()
+        # 4b the linear findings refitted together, and judged again ------------------------------
+        error_now = float(np.mean([summary_error(e) for e in ev_train.errors(sims_tr)]))
+        ev_final = ev_spectral if error_now > st.spectral_above_error else ev_train
+        refit = _final_refit(records, accepted, build, ev_final, channels, gains_r, st, say)
+        if refit is not None:
+            hold_before = float(np.mean([summary_error(e) for e in ev_hold.errors(sims_ho)]))
+            saved = list(accepted)
+            refit["meta"]["holdout_before"] = hold_before
+            refit["meta"]["evaluator"] = (
+                "log transmissibilities" if ev_final is ev_spectral else "time histories"
+            )
+
+            def rebuild():
+                nonlocal model_r, locations, markers, sys_r
+                model_r = build_current()
+                locations, markers, sys_r = assembled(model_r)
+                _set_offsets(evaluators, sys_r)
+                return compare(sys_r, gains_r)
+
+            adopted = False
+            if refit["rss_after"] < refit["rss_before"]:
+                for r, p_new in zip(refit["members"], refit["values"], strict=True):
+                    accepted[r["accepted"]] = r["h"].carried(p_new)
+                new = rebuild()
+                hold_after = float(np.mean([summary_error(e) for e in ev_hold.errors(new[1])]))
+                refit["meta"]["holdout_after"] = hold_after
+                adopted = hold_after <= hold_before
+                if adopted:
+                    sims_tr, sims_ho, maps, significant = new
+                else:
+                    accepted[:] = saved
+                    sims_tr, sims_ho, maps, significant = rebuild()
+            refit["meta"]["adopted"] = adopted
+            say(
+                "final joint refit of "
+                + ", ".join(r["h"].label for r in refit["members"])
+                + (
+                    ": adopted"
+                    if adopted
+                    else ": not adopted (it does not lower both the training residual "
+                    "and the held-out error), the rounds' values kept"
+                )
+            )
+            if adopted:
+                per_member = (
+                    refit["members"],
+                    refit["values"],
+                    refit["std"],
+                    refit["at_bound"],
+                    refit["flags"],
+                )
+                for r, p_new, std_new, bound_new, flags in zip(*per_member, strict=True):
+                    old = findings[r["finding"]]
+                    text = _explain(r["h"], p_new, std_new, r["lin_before"], r["lin_after"], r["located"])
+                    findings[r["finding"]] = _finding(
+                        r["h"],
+                        p_new,
+                        std_new,
+                        bound_new,
+                        flags,
+                        old.band_hz,
+                        old.level_dependent,
+                        text + " (Values from the final joint refit of all findings; the modes named are "
+                        "those the finding moved in its round.)",
+                        old.fit,
+                    )
+            refit["meta"]["wall_s"] = round(time.perf_counter() - t_refit, 1)
+            meta["final_refit"] = refit["meta"]
+
     stop_reason = f"mismatch left after {st.max_findings} rounds (the most this diagnosis runs)"
     round_s = 0.0
     for round_no in range(st.max_findings):
@@ -1227,6 +1309,7 @@ def diagnose_rig(
             nonlinear_sensors=_nonlinear_sensors(distortion, channels, located),
         )
         hyps: list[Hypothesis] = []
+        nonlinear_s = None  # wall time of the nonlinear candidates' screening and fits in this round
         deferred = []  # simulated candidates judged on the level-dependent share if no linear one fits
         for cand in list(RIG_CANDIDATES.values()):
             if not want(cand.physics):
@@ -1378,6 +1461,10 @@ def diagnose_rig(
             )
             together = bool(ok)
         if not ok and deferred:
+            # the linear findings refitted together first: the level-dependent share is compared in
+            # time, so the nonlinear candidates need the linear model as right as it gets
+            final_refit_now()
+            t_nonlinear = time.perf_counter()
             fitted_nl = _fit_on_distortion(
                 deferred,
                 ctx,
@@ -1393,6 +1480,7 @@ def diagnose_rig(
             )
             fitted += fitted_nl
             ok = [f for f in fitted_nl if f["rejected"] is None]
+            nonlinear_s = time.perf_counter() - t_nonlinear
         if not ok:
             stop_reason = "no catalogue entry explains it: " + "; ".join(
                 f"{f['h'].label} improves {100 * f['improvement']:.0f} % ({f['rejected']})" for f in fitted
@@ -1477,7 +1565,8 @@ def diagnose_rig(
                     at_bound,
                     (),
                     band_hz,
-                    level_dependent,
+                    # fitted on the level-dependent share: level dependent by construction
+                    level_dependent or bool(f.get("on_distortion")),
                     _explain(h, p, f["std"], lin_before, lin_after, located),
                     fit,
                 )
@@ -1502,76 +1591,11 @@ def diagnose_rig(
         sims_tr, sims_ho, maps, significant = sims_tr1, sims_ho1, maps1, significant1
         round_s = time.perf_counter() - t_round
         meta["rounds"].append({"round": round_no + 1, "candidates": len(hyps), "wall_s": round(round_s, 1)})
+        if nonlinear_s is not None:
+            meta["rounds"][-1]["nonlinear_s"] = round(nonlinear_s, 1)
         if not significant.any():
             break
-    if st.final_refit and len(records) > 1:
-        # 4b the linear findings refitted together, and judged again ------------------------------
-        error_now = float(np.mean([summary_error(e) for e in ev_train.errors(sims_tr)]))
-        ev_final = ev_spectral if error_now > st.spectral_above_error else ev_train
-        refit = _final_refit(records, accepted, build, ev_final, channels, gains_r, st, say)
-        if refit is not None:
-            hold_before = float(np.mean([summary_error(e) for e in ev_hold.errors(sims_ho)]))
-            saved = list(accepted)
-            refit["meta"]["holdout_before"] = hold_before
-            refit["meta"]["evaluator"] = (
-                "log transmissibilities" if ev_final is ev_spectral else "time histories"
-            )
-
-            def rebuild():
-                nonlocal model_r, locations, markers, sys_r
-                model_r = build_current()
-                locations, markers, sys_r = assembled(model_r)
-                _set_offsets(evaluators, sys_r)
-                return compare(sys_r, gains_r)
-
-            adopted = False
-            if refit["rss_after"] < refit["rss_before"]:
-                for r, p_new in zip(refit["members"], refit["values"], strict=True):
-                    accepted[r["accepted"]] = r["h"].carried(p_new)
-                new = rebuild()
-                hold_after = float(np.mean([summary_error(e) for e in ev_hold.errors(new[1])]))
-                refit["meta"]["holdout_after"] = hold_after
-                adopted = hold_after <= hold_before
-                if adopted:
-                    sims_tr, sims_ho, maps, significant = new
-                else:
-                    accepted[:] = saved
-                    sims_tr, sims_ho, maps, significant = rebuild()
-            refit["meta"]["adopted"] = adopted
-            say(
-                "final joint refit of "
-                + ", ".join(r["h"].label for r in refit["members"])
-                + (
-                    ": adopted"
-                    if adopted
-                    else ": not adopted (it does not lower both the training residual "
-                    "and the held-out error), the rounds' values kept"
-                )
-            )
-            if adopted:
-                per_member = (
-                    refit["members"],
-                    refit["values"],
-                    refit["std"],
-                    refit["at_bound"],
-                    refit["flags"],
-                )
-                for r, p_new, std_new, bound_new, flags in zip(*per_member, strict=True):
-                    old = findings[r["finding"]]
-                    text = _explain(r["h"], p_new, std_new, r["lin_before"], r["lin_after"], r["located"])
-                    findings[r["finding"]] = _finding(
-                        r["h"],
-                        p_new,
-                        std_new,
-                        bound_new,
-                        flags,
-                        old.band_hz,
-                        old.level_dependent,
-                        text + " (Values from the final joint refit of all findings; the modes named are "
-                        "those the finding moved in its round.)",
-                        old.fit,
-                    )
-            meta["final_refit"] = refit["meta"]
+    final_refit_now()
     if significant.any():
         unexplained.append(
             _unexplained(

@@ -119,9 +119,17 @@ class Hypothesis:
 
     def carried(self, p) -> tuple:
         """(catalogue entry, location, values) that put the finding at ``p`` into a model."""
-        values = {n: float(v) for n, v in zip(self.names, p, strict=True)}
+        values = self.entry_values({n: float(v) for n, v in zip(self.names, p, strict=True)})
         values.update(self.fixed)
         return self.physics, self.apply_location if self.apply_location is not None else self.location, values
+
+    def entry_values(self, values: dict) -> dict:
+        """Return the catalogue entry's parameter values from the fitted ones (default: the same names)."""
+        return dict(values)
+
+    def fit_values(self, values: dict) -> np.ndarray:
+        """Return the fitted parameter vector from entry values (the inverse of :meth:`entry_values`)."""
+        return np.array([float(values[n]) for n in self.names])
 
     def gains(self, p, channels) -> np.ndarray | None:
         """Output gain per channel (None: all 1)."""
@@ -409,8 +417,10 @@ class ConnectorHypothesis(Hypothesis):
 
     The spring's stiffness (a 6x6 matrix or a Cartesian spring's 3-vector) is ``sum_i p_i B_i`` over the
     stiffness parameters (``basis(model)`` -> {name: B_i}, default :func:`joint_basis`) and its damping
-    ``t`` times it (``damping`` names ``t``, a damping time). The entry is applied at ``start`` with
-    no damping; the derivatives of the matrices by each ``p_i`` and by damping ``B_i`` are taken on
+    ``t`` times it (``damping`` names ``t``, a damping time; a negative ``p_i`` adds none). The
+    fitted parameters may differ from the entry's (``fields``: names, units, bounds, start, with
+    :meth:`~Hypothesis.entry_values` mapping them), as long as the spring is linear in them. The
+    entry is applied at ``start`` with no damping; the derivatives of the matrices by each ``p_i`` and by damping ``B_i`` are taken on
     the same assembled model (:class:`_Relinearised`): ``K0 + sum (p_i - p_i0) dK_i`` and
     ``C0 + t sum p_i dC_i``, exact (``C`` is bilinear in ``p`` and ``t``, which a purely affine
     interpolation is not).
@@ -425,11 +435,12 @@ class ConnectorHypothesis(Hypothesis):
         start: dict,
         basis=joint_basis,
         damping: str = "damping_time_s",
+        fields: tuple | None = None,
         **where,
     ):
-        super().__init__(physics, location, *_entry_fields(entry, start), **where)
+        super().__init__(physics, location, *(fields or _entry_fields(entry, start)), **where)
         model = build()
-        applied = entry.apply(model, location, **{**start, damping: 0.0})
+        applied = entry.apply(model, location, **self.entry_values({**start, damping: 0.0}))
         model.assemble()
         rl = _Relinearised(model)
         spring = int(applied.items["spring"])
@@ -463,7 +474,7 @@ class ConnectorHypothesis(Hypothesis):
         c = self.base.full_damping.copy()
         for v, v0, d_k, d_c in zip(ks, self.p0, self.d_k, self.d_c, strict=True):
             k += (v - v0) * d_k
-            c += t * v * d_c
+            c += t * max(v, 0.0) * d_c  # a negative stiffness change takes no damping off
         return project(self.base.full_mass, c, k, self.base)
 
 

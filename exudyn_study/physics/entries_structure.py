@@ -165,9 +165,10 @@ frequency. The response is level-independent (linear).
         Parameter("compression_modulus_increase_pa", "Pa", 0.0, 1e9, 0.0,
                   "added compression modulus of the pad (normal and rocking)"),
         Parameter("damping_time_s", "s", 0.0, 1e-2, 0.0, "stiffness-proportional damping time of the spring"),
-        Parameter("rocking_factor_about_x", "1", 0.0, 10.0, 1.0,
+        # up to 1e4: an added spring whose compression increase is small may still add rocking
+        Parameter("rocking_factor_about_x", "1", 0.0, 1e4, 1.0,
                   "rocking modulus / compression modulus of the added spring about x"),
-        Parameter("rocking_factor_about_z", "1", 0.0, 10.0, 1.0,
+        Parameter("rocking_factor_about_z", "1", 0.0, 1e4, 1.0,
                   "rocking modulus / compression modulus of the added spring about z"),
         Parameter("torsion_modulus_change_pa", "Pa", -1e7, 1e7, 0.0,
                   "torsion modulus of the added spring minus its shear modulus (negative: softer)"),

@@ -173,12 +173,27 @@ CONNECTORS = {
         {"stiffness_n_per_m": 1e9, "rotational_stiffness_n_m_per_rad": 1e7, "damping_time_s": 1e-4},
         {"stiffness_n_per_m": 3e7, "rotational_stiffness_n_m_per_rad": 2e5, "damping_time_s": 2e-3},
     ),
+    # the diagnosis's pad candidate (rig_candidates.PAD_FREE: rocking and torsion tied to compression and shear)
     "bushing_stiffness": (
         "bracket_left",
-        {"shear_modulus_increase_pa": 1e6, "compression_modulus_increase_pa": 5e6, "damping_time_s": 1e-4},
+        None,  # rig_candidates.PAD_START
         {
             "shear_modulus_increase_pa": 2.5e6,
             "compression_modulus_increase_pa": 1.2e7,
+            "damping_time_s": 1.5e-3,
+        },
+    ),
+    # all its moduli free (rig_candidates.PAD_NAMES), carried as the entry's factors and torsion change: rocking
+    # unlike compression about each axis, torsion softer than the rubber (no damping on that part)
+    "bushing_stiffness:all": (
+        "bracket_left",
+        None,
+        {
+            "shear_modulus_increase_pa": 2.5e6,
+            "compression_modulus_increase_pa": 1.2e7,
+            "rocking_modulus_increase_about_x_pa": 9e6,
+            "rocking_modulus_increase_about_z_pa": 2.6e7,
+            "torsion_modulus_increase_pa": -1.2e6,
             "damping_time_s": 1.5e-3,
         },
     ),
@@ -189,7 +204,7 @@ CONNECTORS = {
     ),
 }
 #: the candidates' stiffness bases (default: the joint's 6-DOF one)
-BASES = {"bushing_stiffness": "_pad_basis", "rear_support_compliance": "_rear_support_basis"}
+BASES = {"rear_support_compliance": "_rear_support_basis"}
 
 
 @pytest.mark.parametrize("physics", sorted(CONNECTORS))
@@ -204,8 +219,23 @@ def test_connector_candidate_equals_the_model_with_the_entry_applied(model3, phy
 
     key, start, values = CONNECTORS[physics]
     basis = {"basis": getattr(rig_candidates, BASES[physics])} if physics in BASES else {}
-    h = ConnectorHypothesis(physics, key, entry(physics), model3, start, **basis)
-    ref = _fresh(model3, physics, key, values)
+    if physics.startswith("bushing_stiffness"):
+        free = rig_candidates.PAD_NAMES if physics.endswith(":all") else rig_candidates.PAD_FREE
+        physics = "bushing_stiffness"
+        h = rig_candidates.pad_hypothesis(model3, entry(physics), free)
+        assert h.names == tuple(values)
+        carried = h.entry_values(values)
+        if "torsion_modulus_increase_pa" in values:
+            assert carried["rocking_factor_about_z"] == pytest.approx(2.6e7 / 1.2e7)
+            assert carried["torsion_modulus_change_pa"] == pytest.approx(-1.2e6 - 2.5e6)
+        else:  # tied as in a bonded block: the entry's defaults
+            assert carried["rocking_factor_about_x"] == carried["rocking_factor_about_z"] == 1.0
+            assert carried["torsion_modulus_change_pa"] == 0.0
+        np.testing.assert_allclose(h.fit_values(carried), [values[n] for n in h.names])  # the inverse
+    else:
+        h = ConnectorHypothesis(physics, key, entry(physics), model3, start, **basis)
+        carried = values
+    ref = _fresh(model3, physics, key, carried)
     got = h.system([values[n] for n in h.names])
 
     def modes(system):
