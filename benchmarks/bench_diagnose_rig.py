@@ -15,6 +15,12 @@ Only the scorer reads the truth. Scores:
 - held-out error (the diagnosis's metric) reduced by at least 50 %;
 - wall time per diagnosis.
 
+Result (session 6, commit b1a87e4, load 1-2, 19:00-19:45): 20 effects (sensor gain x5, drive
+linkage x6, bushing stiffening on Model 3 x4, modal damping x3, added mass x2): physics 20/20,
+location 20/20, parameters within 15 % 20/20 (largest error 0.75 %), held-out error at least halved
+20/20; 3/3 no-effect scenarios without a finding. Diagnosis wall time median 43 s, max 344 s (a
+Model-3 bushing scenario; its nonlinear truth recordings 33-73 s).
+
 Run: ``python3 benchmarks/bench_diagnose_rig.py [--n 20] [--n-none 3] [--out DIR]``
 (about 2-4 min per scenario on 2 cores). Results: ``DIR/results.json`` and a table on stdout.
 """
