@@ -50,7 +50,8 @@ joint refit 213 s and the nonlinear screening and fit 166 s, so this scenario do
 
 Run: ``python3 benchmarks/bench_diagnose_thesis.py [--out DIR] [--recordings DIR] [--duration S]
 [--protocol levels|original] [--time-budget S]``
-(``--recordings`` reuses recordings written by an earlier run). Results: ``DIR/thesis_diagnosis.json``.
+(``--recordings`` reuses recordings written by an earlier run). Results: ``DIR/thesis_diagnosis.json`` and
+the HTML report ``DIR/report/index.html``.
 """
 
 from __future__ import annotations
@@ -187,6 +188,7 @@ def main(argv=None) -> int:
     st = RigDiagnosisSettings()
     if args.time_budget is not None:
         st.time_budget_s = float(args.time_budget)
+    figures: dict = {}
     d = diagnose_rig(
         sc.variant,
         train,
@@ -194,8 +196,12 @@ def main(argv=None) -> int:
         damping=sc.damping,
         progress=lambda t: print("  " + t, flush=True),
         settings=st,
+        figures=figures,
     )
     wall = time.perf_counter() - t0
+    from exudyn_study.diagnose.report import write_report
+
+    report = write_report(d, out_dir / "report", figures)  # what a user gets from ``diagnose --report``
     truth = json.loads((rec_dir / truth_name(sc.name)).read_text())
     augs = truth["augmentations"]
 
@@ -316,7 +322,7 @@ def main(argv=None) -> int:
         "truth": augs,
     }
     path = write_text_atomic(out_dir / "thesis_diagnosis.json", json.dumps(result, indent=1, default=float))
-    print(f"results {path}")
+    print(f"results {path}; report {report}")
     return 0
 
 
