@@ -115,6 +115,10 @@ def _frf_overlay(data: Mapping, path: Path) -> Path | None:
     fig = _figure(3.6 * len(recs), 2.6 * len(sensors))
     axes = fig.subplots(len(sensors), len(recs), squeeze=False, sharex=True)
     levels = dict(zip(data.get("labels", []), np.asarray(data.get("levels", [])), strict=False))
+    physics = str(data.get("physics", "the fit"))
+    n_found = physics.count(" + ") + 1
+    # a long list of findings would cover the plots: name them in the title of the report instead
+    after_label = f"with {physics}" if len(physics) <= 40 else f"with the {n_found} findings"
     for r, s in enumerate(sensors):
         si = chans.index(s)
         for c, lab in enumerate(recs):
@@ -123,13 +127,7 @@ def _frf_overlay(data: Mapping, path: Path) -> Path | None:
             if nominal.get(lab) is not None:
                 ax.semilogy(freq, np.abs(nominal[lab][si]), color="tab:red", lw=0.9, ls="--", label="nominal")
             if after.get(lab) is not None:
-                ax.semilogy(
-                    freq,
-                    np.abs(after[lab][si]),
-                    color="tab:blue",
-                    lw=0.9,
-                    label=f"with {data.get('physics', 'fit')}",
-                )
+                ax.semilogy(freq, np.abs(after[lab][si]), color="tab:blue", lw=0.9, label=after_label)
             role = "held-out" if lab in data.get("holdout", []) else "train"
             lv = levels.get(lab, np.nan)
             ax.set_title(f"{s}, {lab} ({role}, {lv:.3g} {_unit(data)})", fontsize=8)
@@ -149,6 +147,18 @@ def _errors(diagnosis: Diagnosis, data: Mapping, path: Path) -> Path | None:
     per = fit.get("per_channel") or {}
     if not per:
         return None
+    # several findings: "after" is the final model with all of them (the first finding's own fit is
+    # that of its round only), on the held-out recordings
+    final = diagnosis.metadata.get("final_holdout_per_channel") if len(diagnosis.findings) > 1 else None
+    if final:
+        per = {
+            lab: {ch: {"before": v["before"], "after": final[lab][ch]} for ch, v in chans_.items()}
+            for lab, chans_ in per.items()
+            if lab in final
+        }
+        after_name = f"the {len(diagnosis.findings)} findings"
+    else:
+        after_name = diagnosis.findings[0].physics
     chans = list(next(iter(per.values())))
     groups = {"train": list(data.get("train", [])), "held-out": list(data.get("holdout", []))}
     fig = _figure(_bar_width_in(len(chans), 1.1), 3.2)
@@ -180,7 +190,7 @@ def _errors(diagnosis: Diagnosis, data: Mapping, path: Path) -> Path | None:
     kind = "FRF error" if "FRF" in str(fit.get("metric", "")) else "error"
     ax.set_ylabel(f"relative {kind} (-)")
     ax.set_title(
-        f"{kind} per channel, nominal (before) vs with {diagnosis.findings[0].physics} (after)", fontsize=9
+        f"{kind} per channel, nominal (before) vs with {after_name} (after)", fontsize=9
     )
     ax.legend(fontsize=7, ncol=2)
     ax.grid(True, axis="y", alpha=0.3)

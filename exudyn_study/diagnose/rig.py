@@ -1612,7 +1612,12 @@ def diagnose_rig(
         )
     lin_r = getattr(sys_r, "lin", sys_r)
     if findings:
-        meta["final_holdout_error"] = [summary_error(e) for e in ev_hold.errors(sims_ho)]
+        final_errors = ev_hold.errors(sims_ho)
+        meta["final_holdout_error"] = [summary_error(e) for e in final_errors]
+        meta["final_holdout_per_channel"] = {
+            str(name).rsplit("/", 1)[-1]: {c: float(e[k]) for k, c in enumerate(channels)}
+            for (name, _), e in zip(ho, final_errors, strict=True)
+        }
         meta["relative_pseudo_damage"] = _damage(hold_recs, sims_ho_nominal, sims_ho)
         if figures is not None:
             figures["after_T"] = {

@@ -410,3 +410,27 @@ def test_the_generic_time_simulation_drives_with_the_band_limited_drive():
     drive = Drive()
     drive.set_signal(u, fs)
     np.testing.assert_allclose(acc, drive.evaluate(t, 2), rtol=0, atol=1e-9 * np.abs(exact).max())
+
+
+def test_report_error_bars_show_the_final_model_after_several_findings(tmp_path, monkeypatch):
+    """With several findings the error figure's "after" is the final model (metadata
+    ``final_holdout_per_channel``), not the first finding's round; with one it is that finding's fit."""
+    from exudyn_study.diagnose import report
+
+    def finding(name, after):
+        per = {"hold.h5": {"A": {"before": 2.0, "after": after}, "B": {"before": 1.0, "after": after}}}
+        return Finding(physics=name, location={"sensors": ["A"], "component": None, "interface": None},
+                       band_hz=(3.0, 60.0), level_dependent=False, explanation="x",
+                       parameters={"k": {"value": 1.0, "unit": "N/m", "std": 0.1}},
+                       fit={"train_before": 2.0, "train_after": after, "holdout_before": 2.0,
+                            "holdout_after": after, "metric": "relative error", "per_channel": per})
+
+    drawn = []
+    monkeypatch.setattr(report, "_log_axis_if_spread", lambda ax, values: drawn.append(list(values)))
+    final = {"hold.h5": {"A": 0.1, "B": 0.2}}
+    two = Diagnosis(True, [finding("a", 1.5), finding("b", 1.2)], [], {"final_holdout_per_channel": final})
+    assert report._errors(two, {"holdout": ["hold.h5"]}, tmp_path / "two.png") is not None
+    assert drawn[-1] == [2.0, 1.0, 0.1, 0.2]  # held-out before (nominal), after (all findings)
+    one = Diagnosis(True, [finding("a", 1.5)], [], {"final_holdout_per_channel": final})
+    report._errors(one, {"holdout": ["hold.h5"]}, tmp_path / "one.png")
+    assert drawn[-1] == [2.0, 1.0, 1.5, 1.5]
