@@ -35,6 +35,7 @@ The built-ins (``added_mass``, ``modal_damping``, ``sensor_gain``,
 
 from __future__ import annotations
 
+import functools
 import logging
 from collections.abc import Callable
 from dataclasses import dataclass, field
@@ -504,7 +505,9 @@ def _pad_fields(entry, free=PAD_FREE):
     )
 
 
+@functools.cache
 def _pad_hypothesis_class():
+    """Return the pad's hypothesis class (built once, on first use: this module does not import them)."""
     from .rig_hypotheses import ConnectorHypothesis
 
     class PadHypothesis(ConnectorHypothesis):
