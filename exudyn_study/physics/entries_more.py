@@ -319,13 +319,15 @@ def rubber_pad_location_check(entry_name: str):
 
 
 def _rubber_face_nodes(body) -> tuple[np.ndarray, np.ndarray, int]:
-    """All nodes of the rubber pad's frame-side and bracket-side faces, and the pad normal's axis (``y``)."""
-    nodes = np.asarray(body.region_nodes[_RUBBER_REGION], dtype=int)
-    x = np.asarray(body.node_positions_m)[nodes]
-    normal = int(np.argmin(np.ptp(x, axis=0)))
-    depth = np.abs(x[:, normal])  # the pad sits on the side-member web: |y| grows outwards
-    tol = 1e-3 * max(float(np.ptp(x)), 1e-9) + 1e-6
-    return nodes[depth <= depth.min() + tol], nodes[depth >= depth.max() - tol], normal
+    """All nodes of the rubber pad's frame-side and bracket-side faces, and the pad normal's axis (``y``).
+
+    The faces of :func:`~exudyn_study.physics.entries_structure.rubber_pad` (one definition of the
+    pad's geometry for its linear spring and its hardening).
+    """
+    from .entries_structure import rubber_pad
+
+    pad = rubber_pad(body, _RUBBER_REGION)
+    return pad["inner"], pad["outer"], pad["normal"]
 
 
 def _rubber_faces(body, count: int = 8) -> tuple[np.ndarray, np.ndarray]:
