@@ -127,6 +127,11 @@ class RigDiagnosisSettings:
     p_value: float = 1e-3
 
 
+def _label(name) -> str:
+    """Return a recording's label in the JSON and the report: its file name (else the name as given)."""
+    return str(name).rsplit("/", 1)[-1]
+
+
 def _load(recs, what):
     from ..recording import Recording, read_recording
 
@@ -1176,8 +1181,8 @@ def diagnose_rig(
     }
     if figures is not None:
         _figures_before(figures, tr + ho, train_recs + hold_recs, sims_tr + sims_ho, lin0, sensor_names, maps)
-        figures["train"] = [str(n).rsplit("/", 1)[-1] for n, _ in tr]
-        figures["holdout"] = [str(n).rsplit("/", 1)[-1] for n, _ in ho]
+        figures["train"] = [_label(n) for n, _ in tr]
+        figures["holdout"] = [_label(n) for n, _ in ho]
     if not significant.any():
         meta["wall_s"] = time.perf_counter() - t_start
         say("no significant mismatch: no missing physics found")
@@ -1200,7 +1205,6 @@ def diagnose_rig(
             return
         refitted = linear
         t_refit = time.perf_counter()
-        # 4b the linear findings refitted together, and judged again ------------------------------
         error_now = float(np.mean([summary_error(e) for e in ev_train.errors(sims_tr)]))
         ev_final = ev_spectral if error_now > st.spectral_above_error else ev_train
         refit = _final_refit(records, accepted, build, ev_final, channels, gains_r, st, say)
@@ -1530,7 +1534,7 @@ def diagnose_rig(
             "holdout_after": float(np.mean([summary_error(e) for e in per_ho1])),
             "metric": METRIC,
             "per_channel": {
-                str(name).rsplit("/", 1)[-1]: {
+                _label(name): {
                     c: {"before": float(e0[k]), "after": float(e1[k])} for k, c in enumerate(channels)
                 }
                 for (name, _), e0, e1 in zip(ho, per_ho0, per_ho1, strict=True)
@@ -1615,7 +1619,7 @@ def diagnose_rig(
         final_errors = ev_hold.errors(sims_ho)
         meta["final_holdout_error"] = [summary_error(e) for e in final_errors]
         meta["final_holdout_per_channel"] = {
-            str(name).rsplit("/", 1)[-1]: {c: float(e[k]) for k, c in enumerate(channels)}
+            _label(name): {c: float(e[k]) for k, c in enumerate(channels)}
             for (name, _), e in zip(ho, final_errors, strict=True)
         }
         meta["relative_pseudo_damage"] = _damage(hold_recs, sims_ho_nominal, sims_ho)
@@ -1656,7 +1660,7 @@ def _model_t(lin, freq, channels, sensor_names, gains=None):
 def _figures_before(figures, named, recs, sims, lin0, sensor_names, maps):
     """Residual map (model error power / noise power per bin), measured and nominal transmissibilities."""
     k0 = 1000
-    labels = [str(n).rsplit("/", 1)[-1] for n, _ in named]
+    labels = [_label(n) for n, _ in named]
     rmaps, measured, levels = [], {}, []
     freq = None
     for lab, r, s in zip(labels, recs, sims, strict=True):

@@ -420,10 +420,10 @@ class ConnectorHypothesis(Hypothesis):
     ``t`` times it (``damping`` names ``t``, a damping time; a negative ``p_i`` adds none). The
     fitted parameters may differ from the entry's (``fields``: names, units, bounds, start, with
     :meth:`~Hypothesis.entry_values` mapping them), as long as the spring is linear in them. The
-    entry is applied at ``start`` with no damping; the derivatives of the matrices by each ``p_i`` and by damping ``B_i`` are taken on
-    the same assembled model (:class:`_Relinearised`): ``K0 + sum (p_i - p_i0) dK_i`` and
-    ``C0 + t sum p_i dC_i``, exact (``C`` is bilinear in ``p`` and ``t``, which a purely affine
-    interpolation is not).
+    entry is applied at ``start`` with no damping; the derivatives of the matrices by each ``p_i``
+    and by damping ``B_i`` are taken on the same assembled model (:class:`_Relinearised`):
+    ``K0 + sum (p_i - p_i0) dK_i`` and ``C0 + t sum p_i dC_i``, exact (``C`` is bilinear in ``p``
+    and ``t``, which a purely affine interpolation is not).
     """
 
     def __init__(
