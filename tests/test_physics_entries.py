@@ -882,3 +882,19 @@ def test_model3_bushing_joints_are_unloaded_at_the_reference(bodies3):
     spring = modal.linearize(build(2.0 * k_t)).stiffness - modal.linearize(model).stiffness
     np.testing.assert_allclose(spring, spring.T, rtol=0, atol=1e-9 * np.abs(spring).max())
     assert np.abs(spring).max() > 0.1 * k_t
+
+
+def test_sloshing_damps_across_the_tank_by_its_lateral_factor(bodies3):
+    """``lateral_damping_factor`` 3: the slosh mode along y has three times the damping ratio of the one
+    along x (the tank is far stiffer than the slosh spring, so each slosh mode is the slosh mass's own)."""
+    from exudyn_study import modal
+
+    f_s, zeta_s, m_s = 3.0, 0.04, 80.0
+    model = _model3(bodies3)
+    entry("sloshing").apply(model, "tank_left", slosh_frequency_hz=f_s, slosh_damping_ratio=zeta_s,
+                            slosh_mass_kg=m_s, lateral_damping_factor=3.0)
+    modes = modal.system_modes(model, modal.linearize(model), max_frequency_hz=6.0)
+    by_direction = {d["tank_left"]: z for d, z in zip(modes.direction, modes.damping_ratio, strict=True)}
+    assert sorted(by_direction) == ["X", "Y"]
+    assert by_direction["X"] == pytest.approx(zeta_s, rel=0.03)
+    assert by_direction["Y"] == pytest.approx(3.0 * zeta_s, rel=0.03)

@@ -472,6 +472,7 @@ def _add_sloshing(model, location: str, params: dict) -> dict:
     m_s = params["slosh_mass_kg"]
     omega = 2.0 * np.pi * params["slosh_frequency_hz"]
     k, c = m_s * omega**2, 2.0 * params["slosh_damping_ratio"] * m_s * omega
+    c_y = c * params["lateral_damping_factor"]  # across the tank (y): the baffles damp that flow differently
     tag = f"sloshing:{location}"
     r_g = 0.05  # m, radius of gyration of the slosh body: its rotations follow the tank (joint)
     slosh = mbs.CreateRigidBody(name=tag, referencePosition=centre.tolist(),
@@ -483,7 +484,7 @@ def _add_sloshing(model, location: str, params: dict) -> dict:
         name=f"{tag}:vertical", markerNumbers=[m_tank, m_slosh], constrainedAxes=[0, 0, 1, 1, 1, 1],
         visualization=eii.VObjectJointGeneric(show=False)))
     spring = mbs.AddObject(eii.ObjectConnectorCartesianSpringDamper(
-        name=f"{tag}:spring", markerNumbers=[m_tank, m_slosh], stiffness=[k, k, 0.0], damping=[c, c, 0.0],
+        name=f"{tag}:spring", markerNumbers=[m_tank, m_slosh], stiffness=[k, k, 0.0], damping=[c, c_y, 0.0],
         visualization=eii.VObjectConnectorCartesianSpringDamper(show=False)))
     items = {"tank_marker": m_tank, "slosh_body": int(slosh), "slosh_node": slosh_node, "joint": int(joint),
              "spring": int(spring)}
@@ -513,7 +514,9 @@ Physics: the nominal models smear the tank's water over its shell (it moves rigi
 the tank). In a partly filled tank the free surface sloshes. The equivalent mechanical model
 of Housner (1963) and Abramson (1966) replaces the first sloshing mode by a mass
 ``slosh_mass_kg`` on horizontal springs (``x`` and ``y``, ``k = m (2 pi f_s)^2``) tuned to
-``slosh_frequency_hz``, with viscous damping ``slosh_damping_ratio``; vertically and in
+``slosh_frequency_hz``, with viscous damping ``slosh_damping_ratio`` along the tank (x) and
+``lateral_damping_factor`` times that across it (y: baffles across the tank's length drag the
+water's flow along it, not the flow across it, so the two dissipate differently); vertically and in
 rotation it follows the tank (a generic joint). It sits at the tank's centre (Housner puts
 it at a height depending on the fill level; the centre is the simple choice): a rigid
 marker averaging the tank shell's mesh nodes nearest the shell's bounding-box corners. The total mass is
@@ -527,12 +530,18 @@ for a rigid, fixed tank, slightly shifted by the tank's own compliance) seen by 
 and in horizontal excitation); the vertical (``Z``) response and the tank's vertical modes
 are unchanged; below ``f_s`` the horizontal response is unchanged (the compensation keeps the
 mass the drive moves exactly); above ``f_s`` the slosh mass no longer follows the tank, so
-the modes in which the tank moves horizontally rise (as if the tank lost ``slosh_mass_kg``).
+the modes in which the tank moves horizontally rise (as if the tank lost ``slosh_mass_kg``),
+and the slosh damper, ``c = 2 zeta m_s (2 pi f_s)`` along x and ``lateral_damping_factor``
+times that along y, then acts between the tank and the nearly still water: those modes gain
+``zeta ~ c phi^2 / (2 omega)`` (``phi`` the tank's mass-normalised horizontal motion), the
+tank's vertical modes nothing.
 """,
     parameters=(
         Parameter("slosh_frequency_hz", "Hz", 0.2, 20.0, 1.5, "first sloshing frequency"),
         Parameter("slosh_damping_ratio", "1", 0.0, 0.5, 0.02, "damping ratio of the slosh mode"),
         Parameter("slosh_mass_kg", "kg", 0.1, 300.0, 80.0, "mass taking part in the first sloshing mode"),
+        Parameter("lateral_damping_factor", "1", 0.0, 10.0, 1.0,
+                  "damping ratio across the tank (y) / slosh_damping_ratio (along it, x)"),
     ),
     add_items=_add_sloshing,
     locations=f"a fuel tank, one of {list(_TANKS)}",
