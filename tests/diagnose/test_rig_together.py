@@ -265,14 +265,14 @@ def test_the_pad_hardening_is_fitted_on_the_level_dependent_share_of_the_trainin
     ).with_seed(3)
     bodies = mini_model3_bodies()
     recs = {
-        s: virtual_recording(sc, s, 16.0, bodies=bodies, sensors=MODEL3_SENSORS)
+        s: virtual_recording(sc, s, 11.0, bodies=bodies, sensors=MODEL3_SENSORS)
         for s in ("test-50", "test", "white-noise")
     }
     st = RigDiagnosisSettings()
     st.train_duration_s, st.screen_duration_s, st.train_duration_nonlinear_s, st.max_findings = (
-        12.0,
         8.0,
-        12.0,
+        8.0,
+        8.0,
         1,
     )
     d = diagnose_rig(
