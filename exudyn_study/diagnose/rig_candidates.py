@@ -780,15 +780,16 @@ def _explain_bushing_stiffness(h, v, ctx: ExplainContext) -> str:
     g, sg = v["shear_modulus_increase_pa"]
     e, se = v["compression_modulus_increase_pa"]
     t, _ = v["damping_time_s"]
-    extra = ""
-    if "rocking_modulus_increase_about_x_pa" in v:
-        rx, srx = v["rocking_modulus_increase_about_x_pa"]
-        rz, srz = v["rocking_modulus_increase_about_z_pa"]
-        tor, stor = v["torsion_modulus_increase_pa"]
-        extra = (
-            f", rocking modulus +{rx:.3g} +- {srx:.2g} Pa about x and +{rz:.3g} +- {srz:.2g} Pa about z, "
-            f"torsion modulus {tor:+.3g} +- {stor:.2g} Pa"
+    parts = [
+        f"{label} {v[name][0]:+.3g} +- {v[name][1]:.2g} Pa"
+        for name, label in (
+            ("rocking_modulus_increase_about_x_pa", "rocking modulus about x"),
+            ("rocking_modulus_increase_about_z_pa", "rocking modulus about z"),
+            ("torsion_modulus_increase_pa", "torsion modulus"),
         )
+        if name in v  # the moduli fitted free (PAD_FREE); the tied ones follow compression and shear
+    ]
+    extra = "".join(", " + p for p in parts)
     return (
         f"The left mudguard bracket's rubber pad is stiffer than the nominal rubber: shear modulus "
         f"+{g:.3g} +- {sg:.2g} Pa, compression modulus +{e:.3g} +- {se:.2g} Pa{extra} (damping time "

@@ -294,3 +294,17 @@ def test_joint_friction_candidate_equals_the_model_with_friction(model3):
 
     y_stuck = simulate_linear(ref.lin, drive)
     assert np.abs(y_stuck - y_ref).max() > 0.01 * np.abs(y_ref).max()
+
+
+def test_the_pad_finding_text_names_the_moduli_fitted_free_and_only_those():
+    """The pad candidate may fit any subset of its moduli (``PAD_FREE``): the finding's text names the
+    rocking and torsion moduli that were fitted and leaves out the tied ones (a KeyError before)."""
+    from exudyn_study.diagnose.rig_candidates import ExplainContext, _explain_bushing_stiffness
+
+    ctx = ExplainContext(shifts="15.0 -> 15.6 Hz", new_modes_hz=(), where="ASVZ")
+    base = {"shear_modulus_increase_pa": (2.3e6, 1e5), "compression_modulus_increase_pa": (1.0e7, 4e5),
+            "damping_time_s": (1.5e-3, 1e-4)}
+    text = _explain_bushing_stiffness(None, dict(base, rocking_modulus_increase_about_x_pa=(4.5e6, 3e5)), ctx)
+    assert "rocking modulus about x +4.5e+06" in text
+    assert "about z" not in text and "torsion" not in text
+    assert "rocking" not in _explain_bushing_stiffness(None, base, ctx)
