@@ -18,7 +18,7 @@ damping, shape description), free, with both EMA references held and with one he
 view: the two references move together, so the identification sees the latter).
 
 Run:  python benchmarks/bench_thesis_scenario.py --out /tmp/thesis_bench [--modes] [--plots] [--seed N]
-      [--references {both,each}] [--reuse]
+      [--references {both,each}] [--reuse] [--scenario {thesis,thesis-water}]
 """
 
 from __future__ import annotations
@@ -44,14 +44,15 @@ def _run(cmd: list[str]) -> tuple[float, str]:
     return time.perf_counter() - t0, out.stdout
 
 
-def truth_modes() -> float:
+def truth_modes(name: str = "thesis") -> float:
     """Print the linearised truth's system modes up to 60 Hz; return the wall time."""
     from exudyn_study.modal import linearize, system_modes
     from exudyn_study.virtual_rig.run import build_truth
-    from exudyn_study.virtual_rig.thesis import THESIS_SCENARIO, references_held
+    from exudyn_study.virtual_rig import scenario
+    from exudyn_study.virtual_rig.thesis import references_held
 
     t0 = time.perf_counter()
-    model, _ = build_truth(THESIS_SCENARIO)
+    model, _ = build_truth(scenario(name))
     model.assemble()
     lin = linearize(model)
     one = ("one EMA reference held, ARFVZ: what the identification sees", references_held(lin, ("ARFVZ",)))
@@ -67,6 +68,8 @@ def truth_modes() -> float:
 def main(argv=None) -> int:
     ap = argparse.ArgumentParser(description=__doc__.splitlines()[0])
     ap.add_argument("--out", default="/tmp/thesis_bench", help="output directory (created)")
+    ap.add_argument("--scenario", default="thesis", choices=("thesis", "thesis-water"),
+                    help="the thesis truth (default) or its refit with the water sloshing")
     ap.add_argument("--modes", action="store_true", help="also print the linearised truth's modes")
     ap.add_argument("--plots", action="store_true", help="identification figures into OUT/plots")
     ap.add_argument("--reuse", action="store_true",
@@ -79,12 +82,12 @@ def main(argv=None) -> int:
     out = Path(args.out)
     out.mkdir(parents=True, exist_ok=True)
     if args.modes:
-        print(f"truth modes: {truth_modes():.1f} s wall\n")
-    vt = [*CLI, "virtual-test", "--scenario", "thesis", "--signal", "white-noise"]
+        print(f"truth modes: {truth_modes(args.scenario):.1f} s wall\n")
+    vt = [*CLI, "virtual-test", "--scenario", args.scenario, "--signal", "white-noise"]
     vt += ["--out", str(out)]
     if args.seed is not None:
         vt += ["--seed", str(args.seed)]
-    recording = str(out / "thesis_white-noise.h5")
+    recording = str(out / f"{args.scenario}_white-noise.h5")
     t_vt = 0.0 if args.reuse and Path(recording).exists() else _run(vt)[0]
     refs = [["ARFVZ"], ["ARFHZ"]] if args.references == "each" else [["ARFVZ", "ARFHZ"]]
     runs, t_id = [], 0.0
