@@ -186,46 +186,23 @@ THESIS_PARAMETERS = {
 #: median 44 091 % -> 78 %, 441 s, but the cubic explains nothing of the level-dependent share; also
 #: without the longitudinal compliance, and with the pad's rocking about x fitted free)
 THESIS_WATER_PARAMETERS = {
+    **THESIS_PARAMETERS,
     "joints": {
-        # 'component.interface': (translational N/m, rotational N m/rad, damping time s[, rotational damping
-        # factor 1: the rotations' damping time over the translations', default 1])
-        "tank_left.tank_left_front": (3.97e9, 5.2e5, 0.0),
-        "tank_left.tank_left_rear": (7.1e9, 6.36e5, 0.0),
+        **THESIS_PARAMETERS["joints"],
         "tank_right.tank_right_front": (1.64e8, 1.65e5, 4.15e-5, 100.0),
-        "tank_right.tank_right_rear": (1.41e8, 1.16e6, 0.0),
-        "bracket_right.bracket_right": (9.75e7, 2.87e7, 0.0),
     },
-    # the ~28 Hz rig resonance of Section 7.1 (drive -> ARFVZ peak at 27.9 Hz, 3.6 % damped)
-    "drive_linkage": {"stiffness_n_per_m": 1.2e7, "damping_n_s_per_m": 4e3, "mass_kg": 20.0},
-    # the frame's rear attachments on the foundation: (vertical N/m, longitudinal compliance m/N, damping
-    # time s); the frame bounces on them with the front held at 44.3 Hz (Table 1's frame bending about y), and
-    # yaws on their longitudinal compliance at 21.2 Hz
+    # (vertical N/m, longitudinal compliance m/N, damping time s): 1e8 N/m fore-aft, the yaw at 21.2 Hz
     "rear_support": {"rear_left": (2.2e7, 1e-8, 3.12e-4), "rear_right": (2.2e7, 1e-8, 3.12e-4)},
-    # the water in the tanks (222 l in 400 l, Section 3.1): (slosh frequency Hz, damping ratio along the tank,
-    # mass kg, lateral damping factor): an equivalent damper of 1100 N s/m between tank and water along x, 760
-    # across, and 70 kg the tank's horizontal modes lose above 2.5 Hz (see the module docstring)
+    # the water (222 l in 400 l, Section 3.1): (slosh frequency Hz, damping ratio along the tank, mass kg,
+    # lateral damping factor): a damper of 1100 N s/m between tank and water along x, 800 across, and 70 kg
+    # the tanks' horizontal modes lose above 2.5 Hz. 2.5 Hz is above a half-full tank's first slosh
+    # frequency (1-1.5 Hz); in 3-50 Hz only the damper and the mass show, so frequency and ratio trade
     "sloshing": {"tank_left": (2.5, 0.5, 70.0, 0.73), "tank_right": (2.5, 0.5, 70.0, 0.73)},
-    # the left bracket's rubber pad: stiffer than the nominal rubber (G 1.7 -> 4.0 MPa; a bonded thin pad's
-    # compression modulus +10 MPa) and lossy (stiffness-proportional damping time, zeta ~ tau omega / 2), but
-    # nearly free in torsion about its normal (G 0.08 MPa there: the bracket turns about y at 36.8 Hz, where
-    # the thesis's models have that mode, 36-38 Hz; with the bonded block's torsion ours is above 120 Hz)
-    "bushing_pad": {"shear_modulus_increase_pa": 2.3e6, "compression_modulus_increase_pa": 1.04e7,
-                    "damping_time_s": 1.53e-3, "rocking_factor_about_x": 0.45,
-                    "rocking_factor_about_z": 2.05, "torsion_modulus_change_pa": -3.92e6},
-    # the pad's cubic hardening (Section 7.4): the bracket's modes are set by the pad's rocking and
-    # compression (a spring of 1e8 N/m across the faces' mean shear moves them by < 1 %, one of 1e6 N/m per
-    # quadrant in compression by 3.5 %), so the hardening is in compression, per quadrant: each quadrant is
-    # compressed ~40 um rms by the white noise and ~135 um rms by the test signal at 300 %, so 3 k3 sigma^2
-    # is ~1.4e4 N/m at the white noise (nothing) and ~1.6e5 N/m at 300 % (bracket modes +0.6 %; the share
-    # y_300 - 6 y_50 of ASVZ ~0.1). (2e13 made the whole truth nonlinear: a share of 0.77 at ASVZ, 3.7 %
-    # median over the 42 sensors, so no linear model fitted the test signal at 300 %)
-    "bushing_cubic_n_per_m3": 0.0,
-    "bushing_compression_cubic_n_per_m3": 3e12,
-    # (body, factor, lowest and highest free-free body-mode frequency scaled, Hz) on thesis Table 6; the
-    # left bracket's body modes at 135, 170 and 200 Hz carry the pad's torsion and shear in its y-turning,
-    # z and x rocking modes; the
-    # frame's vertical bending modes (140, 173 Hz) carry its bounce on the rear supports, its lateral ones
-    # (44-123 Hz) the right bracket's 47.6 Hz mode
+    "bushing_pad": {
+        **THESIS_PARAMETERS["bushing_pad"],
+        "damping_time_s": 1.53e-3,
+        "rocking_factor_about_x": 0.45,
+    },
     "modal_damping": (
         ("bracket_left", 0.204, 130.0, 140.0),
         ("bracket_left", 0.1, 168.0, 172.0),
