@@ -275,6 +275,7 @@ def test_the_pad_hardening_is_fitted_on_the_level_dependent_share_of_the_trainin
         8.0,
         1,
     )
+    st.n_fit_simulated = 1  # the best-screened nonlinear candidate only (each fit simulates in time)
     d = diagnose_rig(
         3,
         [recs["test-50"], recs["test"]],
