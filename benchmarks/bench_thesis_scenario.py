@@ -9,13 +9,14 @@ Runs, as a user would::
 and averages the modes both identifications found, as the thesis did in Section 5.1 (default
 ``--references each``; ``--references both`` runs one identification with ``-r ARFVZ ARFHZ``,
 which is ill-conditioned: the two drive points move almost together, 0.998 vs 1.000 m per m of
-drive, and it shows poles the truth does not have), then pairs the identified modes one-to-one with thesis Table 1
-(:func:`exudyn_study.virtual_rig.thesis.compare_table1`, least total squared log-frequency distance,
-pairs within 15 %) and prints, per Table-1 mode, the identified frequency and damping ratio
-with their relative errors, the modes left over, how many are within 10 % in both, and the
-wall times. With ``--modes`` it also prints the linearised truth's system modes (frequency,
-damping, shape description), free, with both EMA references held and with one held (the fit's
-view: the two references move together, so the identification sees the latter).
+drive, and it shows poles the truth does not have), then pairs the identified modes one-to-one
+with thesis Table 1 (:func:`exudyn_study.virtual_rig.thesis.compare_table1`, least total squared
+log-frequency distance, pairs within 15 %) and prints, per Table-1 mode, the identified
+frequency and damping ratio with their relative errors, the modes left over, how many are
+within 10 % in both, and the wall times. With ``--modes`` it also prints the linearised
+truth's system modes (frequency, damping, shape description), free, with both EMA references
+held and with one held (the fit's view: the two references move together, so the
+identification sees the latter).
 
 Run:  python benchmarks/bench_thesis_scenario.py --out /tmp/thesis_bench [--modes] [--plots] [--seed N]
       [--references {both,each}] [--reuse] [--scenario {thesis,thesis-water}]
@@ -47,8 +48,8 @@ def _run(cmd: list[str]) -> tuple[float, str]:
 def truth_modes(name: str = "thesis") -> float:
     """Print the linearised truth's system modes up to 60 Hz; return the wall time."""
     from exudyn_study.modal import linearize, system_modes
-    from exudyn_study.virtual_rig.run import build_truth
     from exudyn_study.virtual_rig import scenario
+    from exudyn_study.virtual_rig.run import build_truth
     from exudyn_study.virtual_rig.thesis import references_held
 
     t0 = time.perf_counter()
