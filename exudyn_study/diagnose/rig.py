@@ -123,6 +123,11 @@ class RigDiagnosisSettings:
     # if it lowers the training residual and does not raise the held-out error
     final_refit: bool = True
     final_nfev: int = 20
+    # a nonlinear finding fitted on the level-dependent share is proven on that share at a held-out level
+    # (one drive: a weaker training and a stronger held-out recording): it must explain min_improvement
+    # of it there. The held-out error may then grow by this share at most: the linear findings fitted
+    # before it took up the hardening's mean at the training levels (they are refitted with it in place)
+    nonlinear_holdout_tolerance: float = 0.05
     min_effect: float = 0.005
     p_value: float = 1e-3
 
@@ -1143,6 +1148,9 @@ def diagnose_rig(
     # level-dependent share of the response, which no linear error of the model disturbs
     pair = _level_pair(ev_train_nonlinear.recs)
     ev_distortion = _DistortionEvaluator(pair, sensor_names, pad) if pair is not None else None
+    # ... and proven on it at a held-out level of that drive (a weaker training, a stronger held-out one)
+    pair_hold = _level_pair(ev_train_nonlinear.recs + hold_recs, stronger_in=hold_recs)
+    ev_distortion_hold = _DistortionEvaluator(pair_hold, sensor_names, pad) if pair_hold is not None else None
     p_cell = st.p_value / (len(tr) + len(ho))
 
     def compare(lin, gains):
@@ -1541,7 +1549,20 @@ def diagnose_rig(
             },
             "relative_pseudo_damage": _damage(hold_recs, sims_ho, sims_ho1),
         }
-        if fit["holdout_after"] > fit["holdout_before"]:
+        held_share = None
+        if ev_distortion_hold is not None and any(f.get("on_distortion") for f in batch):
+            # a nonlinear finding fitted on the level-dependent share: proven on it at a held-out level
+            r_before = ev_distortion_hold.residual_vector(sys_before, gains_before)
+            r_after = ev_distortion_hold.residual_vector(sys_r, gains_r)
+            held_share = 1.0 - math.sqrt(float(r_after @ r_after) / max(float(r_before @ r_before), 1e-300))
+            fit["holdout_level_dependent_improvement"] = held_share
+            say(f"it explains {100 * held_share:.0f} % of the level-dependent share at the held-out level")
+        nonlinear_proven = (
+            held_share is not None
+            and held_share >= st.min_improvement
+            and fit["holdout_after"] <= (1.0 + st.nonlinear_holdout_tolerance) * fit["holdout_before"]
+        )
+        if fit["holdout_after"] > fit["holdout_before"] and not nonlinear_proven:
             # it fits the training recordings but not the held-out ones: not a finding
             labels = " + ".join(f["h"].label for f in batch)
             say(
@@ -1556,6 +1577,8 @@ def diagnose_rig(
             break
         if len(batch) > 1:
             fit["together_with"] = [f["h"].label for f in batch]  # the fit is that of the whole round
+        if held_share is not None:
+            refitted = None  # the linear findings are refitted with the nonlinear one in place (4b)
         k_accepted = n_accepted
         for f in batch:
             h, p = f["h"], f["p"]
@@ -1739,18 +1762,20 @@ def _screen(h: Hypothesis, ev: _Evaluator, channels, r0: np.ndarray, nfev: int =
     return max(0.0, 1.0 - best / rss0)
 
 
-def _level_pair(recs) -> tuple | None:
+def _level_pair(recs, stronger_in=None) -> tuple | None:
     """Return the two recordings of one drive at the most different levels: ``(c, weaker, stronger, n)``.
 
     Two drives are one drive at two levels if they are scaled copies in time (correlation
     > 0.9999 over their first ``n`` common samples) and their rms differs by more than
     20 %; ``c`` is the least-squares scale from the weaker to the stronger drive. None
-    without such a pair.
+    without such a pair. ``stronger_in``: only pairs whose stronger recording is one of these.
     """
     best = None
     for a in recs:
         for b in recs:
             if b.drive_rms_m < 1.2 * a.drive_rms_m:
+                continue
+            if stronger_in is not None and not any(b is r for r in stronger_in):
                 continue
             n = min(a.drive.samples.size, b.drive.samples.size)
             ua, ub = a.drive.samples[:n], b.drive.samples[:n]

@@ -19,7 +19,8 @@ apply). The registration declares
 
 The built-ins (``added_mass``, ``modal_damping``, ``sensor_gain``,
 ``drive_linkage_compliance``, ``joint_stiffness``, ``bushing_stiffness``,
-``rear_support_compliance``, ``bushing_stiffening``, ``joint_friction``) are registered here through
+``rear_support_compliance``, ``sloshing``, ``bushing_stiffening``, ``joint_friction``) are registered here
+through
 :func:`register_rig_candidate`, the same call a user makes for an own catalogue entry
 (register the entry itself with :func:`exudyn_study.physics.register` first)::
 
@@ -580,23 +581,77 @@ def _rear_support_basis(model):
     return {"vertical_stiffness_n_per_m": np.array([0.0, 0.0, 1.0])}
 
 
+def _rear_support_basis_xz(model):
+    """Stiffness basis of the rear-support candidate: vertical and longitudinal springs (x, y, z) per unit."""
+    return {
+        "vertical_stiffness_n_per_m": np.array([0.0, 0.0, 1.0]),
+        "longitudinal_stiffness_n_per_m": np.array([1.0, 0.0, 0.0]),
+    }
+
+
 #: start of the rear-support candidates: a support about as stiff as the frame's rear bending (the
-#: thesis's Table-1 frame modes at 41-44 Hz need ~2e7 N/m); the grid below picks the start
-REAR_SUPPORT_START = {"vertical_stiffness_n_per_m": 2e7, "damping_time_s": 1e-4}
-#: screening grid (vertical stiffness N/m, damping time s): the residual is flat in the stiffness far
-#: above the frame's own rear stiffness, so a fit from one stiff start does not reach a soft support
-REAR_SUPPORT_SCREEN = tuple((k, 1e-4) for k in (3e6, 1e7, 3e7, 1e8, 1e9))
+#: thesis's Table-1 frame modes at 41-44 Hz need ~2e7 N/m), fore-aft as good as rigid; the grid below picks
+#: the start
+REAR_SUPPORT_START = {
+    "vertical_stiffness_n_per_m": 2e7,
+    "longitudinal_stiffness_n_per_m": 1e10,
+    "damping_time_s": 1e-4,
+}
+#: screening grid (vertical stiffness N/m, longitudinal stiffness N/m, damping time s): the residual is
+#: flat in the stiffness far above the frame's own rear stiffness, so a fit from one stiff start does not
+#: reach a soft support; fore-aft a soft and a stiff support (the frame's and the components' fore-aft
+#: modes move with the first, not with the second)
+REAR_SUPPORT_SCREEN = tuple((k, kx, 1e-4) for kx in (1e10, 1e8) for k in (3e6, 1e7, 3e7, 1e8, 1e9))
 #: the support taken out of a joint fit: as stiff as the catalogue allows (the nominal support is rigid)
-REAR_SUPPORT_RIGID = {"vertical_stiffness_n_per_m": 1e10}
+REAR_SUPPORT_RIGID = {"vertical_stiffness_n_per_m": 1e10, "longitudinal_stiffness_n_per_m": 1e11}
+#: the stiffest longitudinal support the candidate fits (N/m; rigid for the modes below 60 Hz)
+REAR_SUPPORT_MAX_LONGITUDINAL = 1e11
+
+
+def _rear_support_fields(entry):
+    """(names, units, lower, upper, start) of the rear-support candidate (longitudinal as a stiffness)."""
+    vertical, t = entry.parameter("vertical_stiffness_n_per_m"), entry.parameter("damping_time_s")
+    compliance = entry.parameter("longitudinal_compliance_m_per_n")
+    names = tuple(REAR_SUPPORT_START)
+    return (
+        names,
+        ("N/m", "N/m", "s"),
+        np.array([vertical.lower, 1.0 / compliance.upper, t.lower]),
+        np.array([vertical.upper, REAR_SUPPORT_MAX_LONGITUDINAL, t.upper]),
+        np.array([REAR_SUPPORT_START[n] for n in names]),
+    )
+
+
+@functools.cache
+def _rear_support_hypothesis_class():
+    """Return the rear support's hypothesis class (built once, on first use)."""
+    from .rig_hypotheses import ConnectorHypothesis
+
+    class RearSupportHypothesis(ConnectorHypothesis):
+        """``rear_support_compliance`` fitted with its longitudinal compliance as a stiffness (linear)."""
+
+        def entry_values(self, values: dict) -> dict:
+            out = dict(values)
+            k_x = out.pop("longitudinal_stiffness_n_per_m", None)
+            if k_x is not None:  # at the stiff end: the nominal rigid support (no stiff spring to integrate)
+                rigid = float(k_x) >= 0.5 * REAR_SUPPORT_MAX_LONGITUDINAL
+                out["longitudinal_compliance_m_per_n"] = 0.0 if rigid else 1.0 / float(k_x)
+            return out
+
+        def fit_values(self, values: dict) -> np.ndarray:
+            c_x = float(values.get("longitudinal_compliance_m_per_n", 0.0))
+            full = {**values, "longitudinal_stiffness_n_per_m": 1.0 / c_x if c_x > 0
+                    else REAR_SUPPORT_MAX_LONGITUDINAL}
+            return np.array([float(full[n]) for n in self.names])
+
+    return RearSupportHypothesis
 
 
 def _rear_support(ctx: CandidateContext):
-    """Return the frame's rear attachments (``rear_left``, ``rear_right``) on a vertical spring.
+    """Return the frame's rear attachments (``rear_left``, ``rear_right``) on vertical and fore-aft springs.
 
     Offered when the mismatch is on the frame (the entry leaves the component modes alone).
     """
-    from .rig_hypotheses import ConnectorHypothesis
-
     on_frame = any(sensor_component(s) == "frame" for s in ctx.located)
     if getattr(ctx.model, "rig", None) is None or not on_frame:
         return []
@@ -613,23 +668,67 @@ def _rear_support(ctx: CandidateContext):
             if point is not None and np.linalg.norm(ctx.markers[s][1] - point) < 0.5
         )
         ctx.say(f"linearising the rear-support hypothesis at {side}")
+        entry = ctx.entry("rear_support_compliance")
         out.append(
-            ConnectorHypothesis(
+            _rear_support_hypothesis_class()(
                 "rear_support_compliance",
                 side,
-                ctx.entry("rear_support_compliance"),
+                entry,
                 ctx.build,
                 dict(REAR_SUPPORT_START),
-                basis=_rear_support_basis,
+                basis=_rear_support_basis_xz,
+                fields=_rear_support_fields(entry),
                 component="frame",
                 sensors=near or ctx.component_sensors("frame"),
                 interface=f"foundation_{side}",
                 screen_grid=REAR_SUPPORT_SCREEN,
-                may_vanish=("damping_time_s",),
+                may_vanish=("damping_time_s", "longitudinal_stiffness_n_per_m"),
                 neutral=dict(REAR_SUPPORT_RIGID),
                 one_per_component=False,  # both supports may be compliant (and are, in the thesis truth)
             )
         )
+    return out
+
+
+#: the slosh frequency the sloshing candidate assumes (Hz): a half-full tank's first slosh mode (400 l,
+#: about 1 m long: 1-1.5 Hz) lies below the 3-60 Hz band the diagnosis compares, where only the water's
+#: mass and the damper between tank and water show; the frequency is not identifiable there
+SLOSH_FREQUENCY_HZ = 1.5
+#: start of the sloshing candidate: a third of a half-full tank's water, moderately damped
+SLOSH_START = {"slosh_mass_kg": 50.0, "slosh_damping_ratio": 0.2, "lateral_damping_factor": 1.0}
+_TANK_COMPONENTS = ("tank_left", "tank_right")
+
+
+def _sloshing(ctx: CandidateContext):
+    """Return the water sloshing in each tank whose sensors see the mismatch (mass, damping ratio, factor)."""
+    from .rig_hypotheses import SloshingHypothesis
+
+    out = []
+    for tank in _TANK_COMPONENTS:
+        if ("sloshing", tank) in ctx.done:
+            continue
+        sensors = ctx.component_sensors(tank)
+        if not any(s in sensors for s in ctx.located):
+            continue
+        ctx.say(f"linearising the sloshing hypothesis in {tank}")
+        try:
+            out.append(
+                SloshingHypothesis(
+                    tank,
+                    ctx.entry("sloshing"),
+                    ctx.build,
+                    SLOSH_FREQUENCY_HZ,
+                    dict(SLOSH_START),
+                    component=tank,
+                    sensors=sensors,
+                    # the water across the tank shows only where the tanks move laterally
+                    may_vanish=("slosh_damping_ratio", "lateral_damping_factor"),
+                    neutral={"slosh_mass_kg": ctx.entry("sloshing").parameter("slosh_mass_kg").lower,
+                             "slosh_damping_ratio": 0.0},
+                )
+            )
+        except InputError as exc:  # the model carries no such tank
+            log.info("sloshing not applicable in %s: %s", tank, exc)
     return out
 
 
@@ -811,12 +910,36 @@ def _explain_rear_support(h, v, ctx: ExplainContext) -> str:
     k, sk = v["vertical_stiffness_n_per_m"]
     t, _ = v["damping_time_s"]
     side = h.location.replace("rear_", "")
+    fore_aft = ""
+    if "longitudinal_stiffness_n_per_m" in v:
+        kx, skx = v["longitudinal_stiffness_n_per_m"]
+        if kx < 0.5 * REAR_SUPPORT_MAX_LONGITUDINAL:
+            fore_aft = (
+                f"; fore-aft it gives {kx:.3g} +- {skx:.2g} N/m, which lowers the modes that move the "
+                f"frame's rear along x (the frame's and the components' fore-aft modes)"
+            )
     return (
         f"The frame's {side} rear attachment does not sit rigidly on the rear foundation: a vertical "
         f"stiffness of {k:.3g} +- {sk:.2g} N/m (damping time {t:.2g} s) between the frame and the foundation "
         f"(bracket, bearing, base plate and anchorage) lowers the frame modes that load the support "
-        f"vertically, to first order d(omega^2) = -lambda_z^2 / k ({ctx.shifts or 'small shifts'}); the "
-        f"component modes stay; sensors {ctx.where} see it."
+        f"vertically, to first order d(omega^2) = -lambda_z^2 / k{fore_aft} "
+        f"({ctx.shifts or 'small shifts'}); the component modes stay; sensors {ctx.where} see it."
+    )
+
+
+def _explain_sloshing(h, v, ctx: ExplainContext) -> str:
+    m, sm = v["slosh_mass_kg"]
+    zeta, _ = v["slosh_damping_ratio"]
+    factor = v.get("lateral_damping_factor", (1.0, 0.0))[0]
+    f_s = h.fixed["slosh_frequency_hz"]
+    c = 2.0 * zeta * m * 2.0 * np.pi * f_s
+    return (
+        f"The water in {h.location} moves: {m:.0f} +- {sm:.0f} kg of it sloshes (assumed first slosh "
+        f"frequency {f_s:g} Hz, below the band, where it cannot be told from the damping) instead of moving "
+        f"rigidly with the tank. Above that frequency it lags the tank: the tank's horizontal modes lose "
+        f"that mass and a damper of {c:.3g} N s/m along the tank ({factor * c:.3g} across it) between tank "
+        f"and water damps them ({ctx.shifts or 'small shifts'}); the vertical tank modes stay; sensors "
+        f"{ctx.where} see it."
     )
 
 
@@ -866,8 +989,16 @@ register_rig_candidate(
 register_rig_candidate(
     "rear_support_compliance",
     _rear_support,
-    description="a frame rear attachment on a vertical spring-damper (vertical stiffness, damping time)",
+    description="a frame rear attachment on vertical and fore-aft spring-dampers (vertical and longitudinal "
+    "stiffness, damping time)",
     explain=_explain_rear_support,
+)
+register_rig_candidate(
+    "sloshing",
+    _sloshing,
+    description="the water sloshing in a fuel tank (slosh mass, damping ratio along the tank, lateral "
+    "damping factor; slosh frequency fixed below the band)",
+    explain=_explain_sloshing,
 )
 register_rig_candidate(
     "modal_damping",

@@ -14,6 +14,8 @@ every ``p`` (``q = r u + N^T z`` is exact for any admissible ``r``):
   displacement map on the nominal model (no build at all);
 - :class:`ModalDampingHypothesis`: ``C(p) = C0 + (factor - 1) C_body`` (the body's block);
 - :class:`SensorGainHypothesis`: the nominal system, one channel scaled;
+- :class:`SloshingHypothesis`: the ``sloshing`` entry at a fixed slosh frequency, exact in its
+  mass, damping ratio and lateral damping factor (four builds);
 - :class:`ConnectorHypothesis`: an entry that adds or changes one connector (a joint's
   6-DOF spring-damper): built once, then the connector's stiffness and damping are set on
   the assembled model and re-linearised (one Exudyn build, not one per parameter);
@@ -45,6 +47,7 @@ __all__ = [
     "AddedMassHypothesis",
     "ModalDampingHypothesis",
     "SensorGainHypothesis",
+    "SloshingHypothesis",
     "project",
 ]
 
@@ -225,6 +228,62 @@ class AffineHypothesis(Hypothesis):
                 m += v * self.d_m[i]
                 c += v * self.d_c[i]
                 k += v * self.d_k[i]
+        return project(m, c, k, self.base)
+
+
+class SloshingHypothesis(Hypothesis):
+    """``sloshing`` in one tank at a fixed slosh frequency, exact in mass, damping ratio and lateral factor.
+
+    With the frequency ``f_s`` fixed, the slosh body's mass, its compensation and its spring
+    (``k = m (2 pi f_s)^2``) are linear in the slosh mass, and its dampers (``c = 2 zeta m 2 pi f_s``
+    along the tank, ``lateral_damping_factor`` times that across it) are ``c (U_x + factor U_y)``
+    with unit dampers ``U_x``, ``U_y``. Four Exudyn builds (the start without damping, twice the
+    mass, the damper along, the damper across) give ``M``, ``K`` and ``C`` exactly at any
+    parameters. The frequency is a fixed value (``fixed``), not fitted: below the analysed band
+    only the water's mass and the damper between tank and water show in the response.
+    """
+
+    def __init__(self, location, entry, build: Callable, frequency_hz: float, start: dict, **where):
+        super().__init__("sloshing", location, *_entry_fields(entry, start), **where)
+        from ..modal import linearize
+
+        self.fixed = {"slosh_frequency_hz": float(frequency_hz), **self.fixed}
+        self.omega = 2.0 * np.pi * float(frequency_hz)
+        self.m0 = float(start["slosh_mass_kg"])
+        zeta1 = 0.5  # the unit dampers are taken at a realistic damper (numerical differentiation)
+
+        def lin_at(mass, zeta, factor):
+            model = build()
+            entry.apply(model, location, slosh_frequency_hz=float(frequency_hz), slosh_mass_kg=mass,
+                        slosh_damping_ratio=zeta, lateral_damping_factor=factor)
+            model.assemble()
+            return linearize(model)
+
+        self.base = lin_at(self.m0, 0.0, 0.0)
+        heavier = lin_at(2.0 * self.m0, 0.0, 0.0)
+        along = lin_at(self.m0, zeta1, 0.0)
+        across = lin_at(self.m0, zeta1, 1.0)
+        for other in (heavier, along, across):
+            if other.full_mass.shape != self.base.full_mass.shape:
+                raise RuntimeError("sloshing: the model's coordinates change with the parameters")
+        c1 = 2.0 * zeta1 * self.m0 * self.omega
+        self.d_m = (heavier.full_mass - self.base.full_mass) / self.m0
+        self.d_k = (heavier.full_stiffness - self.base.full_stiffness) / self.m0
+        self.unit_x = (along.full_damping - self.base.full_damping) / c1
+        self.unit_y = (across.full_damping - along.full_damping) / c1
+        self.p0 = self.start.copy()
+
+    def system(self, p):
+        """Return the constrained system at ``p`` (mass kg, damping ratio, lateral damping factor)."""
+        values = dict(zip(self.names, np.asarray(p, dtype=float), strict=True))
+        mass = values.get("slosh_mass_kg", self.m0)
+        zeta = values.get("slosh_damping_ratio", 0.0)
+        factor = values.get("lateral_damping_factor", 1.0)
+        dm = mass - self.m0
+        c_along = 2.0 * zeta * mass * self.omega
+        m = self.base.full_mass + dm * self.d_m
+        k = self.base.full_stiffness + dm * self.d_k
+        c = self.base.full_damping + c_along * (self.unit_x + factor * self.unit_y)
         return project(m, c, k, self.base)
 
 
@@ -612,6 +671,25 @@ class CompositeHypothesis(Hypothesis):
                 )
             )
 
+        # sloshing members: their dampers 2 zeta m omega (U_x + factor U_y) are trilinear in their parameters,
+        # so the affine derivatives of C are replaced by the exact term (unit dampers in this model's
+        # coordinates: three more builds per member)
+        self.slosh = []
+        for i, h in enumerate(self.members):
+            if not isinstance(h, SloshingHypothesis):
+                continue
+            units = []
+            for zeta, factor in ((0.0, 0.0), (0.5, 0.0), (0.5, 1.0)):
+                values = [dict(s) for s in starts]
+                values[i].update(slosh_damping_ratio=zeta, lateral_damping_factor=factor)
+                units.append(lin_at(values).full_damping)
+            c1 = 2.0 * 0.5 * starts[i]["slosh_mass_kg"] * h.omega
+            self.slosh.append((i, h, (units[1] - units[0]) / c1, (units[2] - units[1]) / c1))
+            for j, (owner, _) in enumerate(specs):
+                if owner == i:
+                    d_m, _, d_k = self.d[j]
+                    self.d[j] = (d_m, np.zeros_like(d_m), d_k)
+
         # members whose damping is their stiffness times a free damping time (ConnectorHypothesis):
         # spec of the time -> specs of their stiffnesses (C is bilinear there, see system)
         self.bilinear = {}
@@ -639,6 +717,13 @@ class CompositeHypothesis(Hypothesis):
                 m += v * d_m
                 c += s_c * v * d_c
                 k += v * d_k
+        if self.slosh:
+            now, then = self.member_values(p), self.member_values(self.p0)
+            for i, h, unit_x, unit_y in self.slosh:
+                for sign, values in ((1.0, now[i]), (-1.0, then[i])):
+                    v = dict(zip(h.names, values, strict=True))
+                    c_along = 2.0 * v["slosh_damping_ratio"] * v["slosh_mass_kg"] * h.omega
+                    c += sign * c_along * (unit_x + v["lateral_damping_factor"] * unit_y)
         return project(m, c, k, self.base)
 
     def member_values(self, p) -> list:

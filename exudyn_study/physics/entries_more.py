@@ -534,11 +534,15 @@ the modes in which the tank moves horizontally rise (as if the tank lost ``slosh
 and the slosh damper, ``c = 2 zeta m_s (2 pi f_s)`` along x and ``lateral_damping_factor``
 times that along y, then acts between the tank and the nearly still water: those modes gain
 ``zeta ~ c phi^2 / (2 omega)`` (``phi`` the tank's mass-normalised horizontal motion), the
-tank's vertical modes nothing.
+tank's vertical modes nothing. Below the analysed band (a half-full tank's first slosh frequency is
+near 1-1.5 Hz) only the damper and the mass show, so frequency and damping ratio trade against each
+other there; the ratio may exceed 1 (an overdamped slosh mass: the equivalent damper of baffles
+dragging the water), up to 2.
 """,
     parameters=(
         Parameter("slosh_frequency_hz", "Hz", 0.2, 20.0, 1.5, "first sloshing frequency"),
-        Parameter("slosh_damping_ratio", "1", 0.0, 0.5, 0.02, "damping ratio of the slosh mode"),
+        Parameter("slosh_damping_ratio", "1", 0.0, 2.0, 0.02,
+                  "damping ratio of the slosh mode (above 1: overdamped, an equivalent damper for baffles)"),
         Parameter("slosh_mass_kg", "kg", 0.1, 300.0, 80.0, "mass taking part in the first sloshing mode"),
         Parameter("lateral_damping_factor", "1", 0.0, 10.0, 1.0,
                   "damping ratio across the tank (y) / slosh_damping_ratio (along it, x)"),

@@ -85,6 +85,7 @@ def test_builtin_candidates_are_registered_with_their_kind():
         "modal_damping",
         "sensor_gain",
         "rear_support_compliance",
+        "sloshing",
         "bushing_stiffening",
         "joint_friction",
     } <= set(RIG_CANDIDATES)
@@ -202,6 +203,10 @@ CONNECTORS = {
         {"vertical_stiffness_n_per_m": 2e7, "damping_time_s": 1e-4},
         {"vertical_stiffness_n_per_m": 6e6, "damping_time_s": 1.5e-3},
     ),
+    # the diagnosis's candidate: vertical and fore-aft springs, the fore-aft one fitted as a stiffness and
+    # carried as the entry's compliance
+    "rear_support_compliance:xz": ("rear_left", None, {
+        "vertical_stiffness_n_per_m": 6e6, "longitudinal_stiffness_n_per_m": 8e7, "damping_time_s": 1.5e-3}),
 }
 #: the candidates' stiffness bases (default: the joint's 6-DOF one)
 BASES = {"rear_support_compliance": "_rear_support_basis"}
@@ -232,6 +237,18 @@ def test_connector_candidate_equals_the_model_with_the_entry_applied(model3, phy
             assert carried["rocking_factor_about_x"] == carried["rocking_factor_about_z"] == 1.0
             assert carried["torsion_modulus_change_pa"] == 0.0
         np.testing.assert_allclose(h.fit_values(carried), [values[n] for n in h.names])  # the inverse
+    elif physics.endswith(":xz"):
+        physics = "rear_support_compliance"
+        e = entry(physics)
+        h = rig_candidates._rear_support_hypothesis_class()(
+            physics, key, e, model3, dict(rig_candidates.REAR_SUPPORT_START),
+            basis=rig_candidates._rear_support_basis_xz, fields=rig_candidates._rear_support_fields(e))
+        carried = h.entry_values(values)
+        assert carried["longitudinal_compliance_m_per_n"] == pytest.approx(1 / 8e7)
+        np.testing.assert_allclose(h.fit_values(carried), [values[n] for n in h.names])  # the inverse
+        # the stiff end is the nominal rigid support
+        assert h.entry_values({**values, "longitudinal_stiffness_n_per_m": 1e11})[
+            "longitudinal_compliance_m_per_n"] == 0.0
     else:
         h = ConnectorHypothesis(physics, key, entry(physics), model3, start, **basis)
         carried = values
@@ -253,6 +270,69 @@ def test_connector_candidate_equals_the_model_with_the_entry_applied(model3, phy
     assert np.abs(frf_linear(got, f) - h_ref).max() <= 1e-3 * np.abs(h_ref).max()
     h_nominal = frf_linear(model_system(model3()), f)
     assert np.abs(h_nominal - h_ref).max() > 0.02 * np.abs(h_ref).max()
+
+
+def test_sloshing_candidate_equals_the_model_with_the_water_at_other_values(model3):
+    """Four builds give the sloshing candidate's matrices exactly: at a mass, damping ratio (overdamped,
+    above the old 0.5 bound) and lateral factor far from its start, the same system modes, damping ratios
+    and FRFs as a fresh build with the entry at those values (frequency fixed); and the water changes the
+    response of the tank's horizontal sensors."""
+    from exudyn_study.diagnose.rig_candidates import SLOSH_FREQUENCY_HZ, SLOSH_START
+    from exudyn_study.diagnose.rig_hypotheses import SloshingHypothesis, model_system
+    from exudyn_study.physics import entry
+    from exudyn_study.simulate import _state_space, frf_linear
+
+    h = SloshingHypothesis("tank_left", entry("sloshing"), model3, SLOSH_FREQUENCY_HZ, dict(SLOSH_START))
+    values = {"slosh_mass_kg": 120.0, "slosh_damping_ratio": 0.9, "lateral_damping_factor": 0.4}
+    carried = h.carried([values[n] for n in h.names])
+    assert carried[:2] == ("sloshing", "tank_left")
+    assert carried[2] == {**values, "slosh_frequency_hz": SLOSH_FREQUENCY_HZ}
+    ref = _fresh(model3, "sloshing", "tank_left", carried[2])
+    got = h.system([values[n] for n in h.names])
+    np.testing.assert_allclose(got.mass, ref.mass, rtol=0, atol=1e-9 * np.abs(ref.mass).max())
+    lam_got, lam_ref = (np.sort_complex(np.linalg.eigvals(_state_space(s)[0])) for s in (got, ref))
+    low = np.abs(lam_ref) < 2 * np.pi * 200
+    np.testing.assert_allclose(lam_got[low], lam_ref[low], rtol=1e-5)
+    f = np.linspace(3.0, 60.0, 300)
+    h_ref = frf_linear(ref, f)
+    assert np.abs(frf_linear(got, f) - h_ref).max() <= 1e-3 * np.abs(h_ref).max()
+    h_nominal = frf_linear(model_system(model3()), f)
+    x = list(ref.sensor_names).index("ATVBX")
+    assert np.abs(h_nominal[x] - h_ref[x]).max() > 0.05 * np.abs(h_ref[x]).max()
+
+
+def test_a_joint_fit_with_the_water_takes_its_trilinear_dampers_exactly(model3):
+    """A joint fit (CompositeHypothesis) of the water in the left tank and the left rear support, both moved
+    far from their starts (the slosh damper 2 zeta m omega (U_x + factor U_y) is trilinear in mass, ratio
+    and factor; the support's damping bilinear): the same system poles as a fresh build with both entries."""
+    from exudyn_study.diagnose import rig_candidates as rc
+    from exudyn_study.diagnose.rig_hypotheses import CompositeHypothesis, SloshingHypothesis, model_system
+    from exudyn_study.physics import entry
+    from exudyn_study.simulate import _state_space
+
+    slosh = SloshingHypothesis("tank_left", entry("sloshing"), model3, rc.SLOSH_FREQUENCY_HZ, dict(rc.SLOSH_START))
+    e = entry("rear_support_compliance")
+    rear = rc._rear_support_hypothesis_class()(
+        "rear_support_compliance", "rear_left", e, model3, dict(rc.REAR_SUPPORT_START),
+        basis=rc._rear_support_basis_xz, fields=rc._rear_support_fields(e))
+    comp = CompositeHypothesis([slosh, rear], model3)
+    values = {
+        "sloshing@tank_left:slosh_mass_kg": 90.0,
+        "sloshing@tank_left:slosh_damping_ratio": 1.4,
+        "sloshing@tank_left:lateral_damping_factor": 0.3,
+        "rear_support_compliance@rear_left:vertical_stiffness_n_per_m": 8e6,
+        "rear_support_compliance@rear_left:longitudinal_stiffness_n_per_m": 5e7,
+        "rear_support_compliance@rear_left:damping_time_s": 8e-4,
+    }
+    p = np.array([values[n] for n in comp.names])
+    model = model3()
+    for h, v in zip(comp.members, comp.member_values(p), strict=True):
+        name, loc, carried = h.carried(v)
+        entry(name).apply(model, loc, **carried)
+    ref = model_system(model)
+    lam_got, lam_ref = (np.sort_complex(np.linalg.eigvals(_state_space(s)[0])) for s in (comp.system(p), ref))
+    low = np.abs(lam_ref) < 2 * np.pi * 200
+    np.testing.assert_allclose(lam_got[low], lam_ref[low], rtol=1e-5)
 
 
 def test_joint_friction_candidate_equals_the_model_with_friction(model3):

@@ -81,3 +81,15 @@ def test_level_dependence_is_judged_on_the_error_left_at_the_nonlinear_channel()
     # model with a 50 % linear error everywhere: the nonlinear share is hidden
     wrong = [0.75 * lin, 1.5 * lin]
     assert not _level_dependent([lo, hi], wrong, rows, dist)
+
+
+def test_the_held_out_level_pair_takes_its_stronger_recording_from_the_held_out_ones():
+    """A nonlinear finding fitted on the training levels is proven at a held-out level of the same drive:
+    the pair's stronger recording must be held out (the weaker may be a training one)."""
+    from exudyn_study.diagnose.rig import _level_pair
+
+    lo, hi, _ = _pair(0.02)
+    c, weak, strong, _ = _level_pair([lo, hi], stronger_in=[hi])
+    assert weak is lo and strong is hi and c == pytest.approx(2.0, rel=1e-9)
+    assert _level_pair([lo, hi], stronger_in=[lo]) is None  # the held-out one is the weaker: no pair
+    assert _level_pair([lo, hi], stronger_in=[]) is None
