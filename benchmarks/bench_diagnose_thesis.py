@@ -49,7 +49,7 @@ joint refit 213 s and the nonlinear screening and fit 166 s, so this scenario do
 10 minutes (the blind benchmark's scenarios do: median 43 s, max 344 s).
 
 Run: ``python3 benchmarks/bench_diagnose_thesis.py [--out DIR] [--recordings DIR] [--duration S]
-[--protocol levels|original] [--time-budget S]``
+[--protocol levels|original] [--time-budget S] [--scenario thesis|thesis-dry]``
 (``--recordings`` reuses recordings written by an earlier run). Results: ``DIR/thesis_diagnosis.json`` and
 the HTML report ``DIR/report/index.html``.
 """
@@ -149,11 +149,17 @@ def main(argv=None) -> int:
         help="levels: train test at 50/100/300 %%, hold out white noise and test at 200 %%; original: train "
         "white noise + test-50, hold out test (see the module docstring)",
     )
+    ap.add_argument(
+        "--scenario",
+        choices=("thesis", "thesis-dry"),
+        default="thesis",
+        help="the truth: the thesis scenario or the session-6 truth without the water (thesis-dry)",
+    )
     args = ap.parse_args(argv)
     out_dir = Path(args.out or tempfile.mkdtemp(prefix="bench_diagnose_thesis_"))
     out_dir.mkdir(parents=True, exist_ok=True)
     rec_dir = Path(args.recordings) if args.recordings else out_dir
-    sc = scenario("thesis")
+    sc = scenario(args.scenario)
     paths = [rec_dir / recording_name(sc.name, s) for s in SIGNALS]
     more = (
         [rec_dir / recording_name(sc.name, "test", lv) for lv in LEVELS] if args.protocol == "levels" else []
@@ -162,8 +168,8 @@ def main(argv=None) -> int:
     truth_file = rec_dir / truth_name(sc.name)
     if args.recordings and truth_file.exists() and not _same_truth(truth_file, sc):
         print(
-            f"the recordings in {rec_dir} are of another version of the thesis scenario (its truth file "
-            f"differs from scenario('thesis')); writing new recordings into {out_dir}",
+            f"the recordings in {rec_dir} are of another version of the {sc.name} scenario (its truth file "
+            f"differs from scenario({sc.name!r})); writing new recordings into {out_dir}",
             flush=True,
         )
         rec_dir = out_dir

@@ -262,10 +262,10 @@ for _name, _loc, _params, _variant, _text in _SINGLE:
         )
     )
 
-from .thesis import THESIS_SCENARIO, THESIS_WATER_SCENARIO  # noqa: E402  (own module: tuned against Table 1)
+from .thesis import THESIS_DRY_SCENARIO, THESIS_SCENARIO  # noqa: E402  (own module: tuned against Table 1)
 
 register_scenario(THESIS_SCENARIO)
-register_scenario(THESIS_WATER_SCENARIO)
+register_scenario(THESIS_DRY_SCENARIO)
 
 #: effects the blind benchmark draws from: entry -> (nominal variant, candidate locations)
 BLIND_EFFECTS = {

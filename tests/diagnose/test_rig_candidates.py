@@ -174,13 +174,15 @@ CONNECTORS = {
         {"stiffness_n_per_m": 1e9, "rotational_stiffness_n_m_per_rad": 1e7, "damping_time_s": 1e-4},
         {"stiffness_n_per_m": 3e7, "rotational_stiffness_n_m_per_rad": 2e5, "damping_time_s": 2e-3},
     ),
-    # the diagnosis's pad candidate (rig_candidates.PAD_FREE: rocking and torsion tied to compression and shear)
+    # the diagnosis's pad candidate (rig_candidates.PAD_FREE: rocking about x free, rocking about z and torsion
+    # tied to compression and shear)
     "bushing_stiffness": (
         "bracket_left",
         None,  # rig_candidates.PAD_START
         {
             "shear_modulus_increase_pa": 2.5e6,
             "compression_modulus_increase_pa": 1.2e7,
+            "rocking_modulus_increase_about_x_pa": 5.4e6,
             "damping_time_s": 1.5e-3,
         },
     ),
@@ -233,8 +235,9 @@ def test_connector_candidate_equals_the_model_with_the_entry_applied(model3, phy
         if "torsion_modulus_increase_pa" in values:
             assert carried["rocking_factor_about_z"] == pytest.approx(2.6e7 / 1.2e7)
             assert carried["torsion_modulus_change_pa"] == pytest.approx(-1.2e6 - 2.5e6)
-        else:  # tied as in a bonded block: the entry's defaults
-            assert carried["rocking_factor_about_x"] == carried["rocking_factor_about_z"] == 1.0
+        else:  # rocking about x free; the others tied as in a bonded block: the entry's defaults
+            assert carried["rocking_factor_about_x"] == pytest.approx(5.4e6 / 1.2e7)
+            assert carried["rocking_factor_about_z"] == 1.0
             assert carried["torsion_modulus_change_pa"] == 0.0
         np.testing.assert_allclose(h.fit_values(carried), [values[n] for n in h.names])  # the inverse
     elif physics.endswith(":xz"):
