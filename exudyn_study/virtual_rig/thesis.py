@@ -261,9 +261,9 @@ THESIS_FIT = {
         (
             "reached with the water (session 7; the dry truth missed them): the tank sway and the second "
             "tank z mode's damping (0.7-0.8 % without the water: their strain energy sits in the frame and "
-            "the mounts' rocking springs, which damp the first tank z mode 2.2 times as much), the frame yaw's "
-            "damping (0.2 % dry: 74 % of its strain in one quasi-static rear-foundation body mode) and the "
-            "14.15 Hz row (the dry truth's second z mode at 15.3 Hz)"
+            "the mounts' rocking springs, which damp the first tank z mode 2.2 times as much), the frame "
+            "yaw's damping (0.2 % dry: 74 % of its strain in one quasi-static rear-foundation body mode) and "
+            "the 14.15 Hz row (the dry truth's second z mode at 15.3 Hz)"
         ),
     ),
 }
@@ -478,7 +478,8 @@ THESIS_SCENARIO = Scenario(
     "(Section 7.4), the frame's rear attachments on compliant supports (the frame bounces on them at "
     "44 Hz: Table 1's frame bending about y; fore-aft compliant too), a compliant drive linkage with its "
     "mass (the ~28 Hz rig resonance of Section 7.1, which the EMA does not see) and modal damping factors "
-    "per body; EMA of its white-noise recording gives 7-8 of thesis Table 1's 10 rows (see THESIS_PARAMETERS).",
+    "per body; EMA of its white-noise recording gives 7-8 of thesis Table 1's 10 rows (see "
+    "THESIS_PARAMETERS).",
     variant=3,
     damping="table6",
     augmentations=thesis_augmentations(),
