@@ -50,6 +50,26 @@ noise from 0.608 to 0.605 (the linear mismatch left there dominates). Relative p
 s, of which the joint refit 213 s and the nonlinear screening and fit 166 s, so this scenario does
 not diagnose in 10 minutes (the blind benchmark's scenarios do: median 43 s, max 344 s).
 
+Result (session 8, the ``thesis`` truth with the water, its session-7 recordings, protocol ``levels``,
+60 s recordings, ``--time-budget 1800``, load 2-4: blind-benchmark runs and the test suite alongside):
+2336 s, three rounds. Found, all in the truth: both rear supports (vertical 2.22e7 and 2.37e7 N/m, truth
+2.2e7; fore-aft 9.3e7 and 1.13e8 N/m, truth 1e8), the four tank mounts (right rear and front within
+10 % in translation and rotation; the left tank's stiff translational springs at or near their bound,
+its rotations within 21 %), the linkage (1.22e7 N/m, truth 1.2e7; 27 kg, truth 20), the pad (shear
++2.36 MPa, truth 2.3; rocking about x 4.78 MPa, truth 4.68; compression 2.1e7, truth 1.04e7), the
+water in both tanks (70.9 and 72.6 kg at the assumed 1.5 Hz, truth 70 kg at 2.5 Hz: the damping
+ratios trade with the frequency), the right bracket's joint, and the pad's cubic hardening in
+compression (2.82e12 N/m^3, truth 3e12: -6 %; it explains 73 % of the level-dependent share at the
+held-out 200 % level, held-out error 0.0933 -> 0.0936, within the 5 % a nonlinear finding may cost).
+Held-out error (white noise / test at 200 %) 4.91/4.03 -> 0.096/0.091. Relative pseudo damage at the
+21 z sensors median 44 091 % -> 102 % (76-114 %), 21/21 closer to 100 %. (The run printed the two
+water findings as "NOT in the truth": this script's matcher lacked ``sloshing``; fixed after the run.)
+Not under 10 minutes: round 1 fits 10 candidates together, and the final joint refit of 11 findings
+takes minutes. Without the water and fore-aft candidates (session 7) the cubic was not found here; on
+``thesis-dry`` with the session-8 candidates and the pad's rocking about x tied (run before that was
+freed), the cubic was not found either (490 s), so ``thesis-dry`` is kept for the Table-1 comparison
+only.
+
 Run: ``python3 benchmarks/bench_diagnose_thesis.py [--out DIR] [--recordings DIR] [--duration S]
 [--protocol levels|original] [--time-budget S] [--scenario thesis|thesis-dry]``
 (``--recordings`` reuses recordings written by an earlier run). Results: ``DIR/thesis_diagnosis.json`` and
@@ -90,6 +110,8 @@ def _match(truth_augs, finding) -> dict | None:
         if a["physics"] == "modal_damping" and a["location"] == loc.get("component"):
             return a
         if a["physics"] == "bushing_stiffness" and loc.get("component") == "bracket_left":
+            return a
+        if a["physics"] == "sloshing" and a["location"] == loc.get("component"):
             return a
         if (
             a["physics"] == "rear_support_compliance"
@@ -228,6 +250,9 @@ def main(argv=None) -> int:
             from exudyn_study.diagnose.rig_candidates import pad_fit_values
 
             truth_values = pad_fit_values(truth_values)  # the candidate fits moduli, not the entry's factors
+        if a is not None and a["physics"] == "rear_support_compliance":
+            c_x = truth_values.get("longitudinal_compliance_m_per_n", 0.0)  # fitted as a stiffness
+            truth_values["longitudinal_stiffness_n_per_m"] = 1.0 / c_x if c_x > 0 else None
         for name, v in f.parameters.items():
             true = truth_values.get(name)
             params[name] = {"fitted": v["value"], "std": v["std"], "at_bound": v["at_bound"], "truth": true}
