@@ -611,9 +611,14 @@ REAR_SUPPORT_START = {
 #: modes move with the first, not with the second)
 REAR_SUPPORT_SCREEN = tuple((k, kx, 1e-4) for kx in (1e10, 1e8) for k in (3e6, 1e7, 3e7, 1e8, 1e9))
 #: the support taken out of a joint fit: as stiff as the catalogue allows (the nominal support is rigid)
-REAR_SUPPORT_RIGID = {"vertical_stiffness_n_per_m": 1e10, "longitudinal_stiffness_n_per_m": 1e11}
-#: the stiffest longitudinal support the candidate fits (N/m; rigid for the modes below 60 Hz)
+#: the stiffest longitudinal support the candidate fits (N/m; rigid for the modes below 60 Hz); from half of
+#: it on the support is carried as the nominal rigid one
 REAR_SUPPORT_MAX_LONGITUDINAL = 1e11
+REAR_SUPPORT_RIGID_ABOVE = 0.5 * REAR_SUPPORT_MAX_LONGITUDINAL
+REAR_SUPPORT_RIGID = {
+    "vertical_stiffness_n_per_m": 1e10,
+    "longitudinal_stiffness_n_per_m": REAR_SUPPORT_MAX_LONGITUDINAL,
+}
 
 
 def _rear_support_fields(entry):
@@ -642,7 +647,7 @@ def _rear_support_hypothesis_class():
             out = dict(values)
             k_x = out.pop("longitudinal_stiffness_n_per_m", None)
             if k_x is not None:  # at the stiff end: the nominal rigid support (no stiff spring to integrate)
-                rigid = float(k_x) >= 0.5 * REAR_SUPPORT_MAX_LONGITUDINAL
+                rigid = float(k_x) >= REAR_SUPPORT_RIGID_ABOVE
                 out["longitudinal_compliance_m_per_n"] = 0.0 if rigid else 1.0 / float(k_x)
             return out
 
@@ -711,6 +716,7 @@ def _sloshing(ctx: CandidateContext):
     """Return the water sloshing in each tank whose sensors see the mismatch (mass, damping ratio, factor)."""
     from .rig_hypotheses import SloshingHypothesis
 
+    entry = ctx.entry("sloshing")
     out = []
     for tank in _TANK_COMPONENTS:
         if ("sloshing", tank) in ctx.done:
@@ -723,7 +729,7 @@ def _sloshing(ctx: CandidateContext):
             out.append(
                 SloshingHypothesis(
                     tank,
-                    ctx.entry("sloshing"),
+                    entry,
                     ctx.build,
                     SLOSH_FREQUENCY_HZ,
                     dict(SLOSH_START),
@@ -731,8 +737,10 @@ def _sloshing(ctx: CandidateContext):
                     sensors=sensors,
                     # the water across the tank shows only where the tanks move laterally
                     may_vanish=("slosh_damping_ratio", "lateral_damping_factor"),
-                    neutral={"slosh_mass_kg": ctx.entry("sloshing").parameter("slosh_mass_kg").lower,
-                             "slosh_damping_ratio": 0.0},
+                    neutral={
+                        "slosh_mass_kg": entry.parameter("slosh_mass_kg").lower,
+                        "slosh_damping_ratio": 0.0,
+                    },
                 )
             )
         except InputError as exc:  # the model carries no such tank
@@ -921,7 +929,7 @@ def _explain_rear_support(h, v, ctx: ExplainContext) -> str:
     fore_aft = ""
     if "longitudinal_stiffness_n_per_m" in v:
         kx, skx = v["longitudinal_stiffness_n_per_m"]
-        if kx < 0.5 * REAR_SUPPORT_MAX_LONGITUDINAL:
+        if kx < REAR_SUPPORT_RIGID_ABOVE:
             fore_aft = (
                 f"; fore-aft it gives {kx:.3g} +- {skx:.2g} N/m, which lowers the modes that move the "
                 f"frame's rear along x (the frame's and the components' fore-aft modes)"
@@ -940,9 +948,9 @@ def _explain_sloshing(h, v, ctx: ExplainContext) -> str:
     zeta, _ = v["slosh_damping_ratio"]
     factor = v.get("lateral_damping_factor", (1.0, 0.0))[0]
     f_s = h.fixed["slosh_frequency_hz"]
-    c = 2.0 * zeta * m * 2.0 * np.pi * f_s
+    c = h.damper_n_s_per_m({"slosh_damping_ratio": zeta, "slosh_mass_kg": m})
     return (
-        f"The water in {h.location} moves: {m:.0f} +- {sm:.0f} kg of it sloshes (assumed first slosh "
+        f"The water in {h.location} moves: {m:.0f} +- {sm:.2g} kg of it sloshes (assumed first slosh "
         f"frequency {f_s:g} Hz, below the band, where it cannot be told from the damping) instead of moving "
         f"rigidly with the tank. Above that frequency it lags the tank: the tank's horizontal modes lose "
         f"that mass and a damper of {c:.3g} N s/m along the tank ({factor * c:.3g} across it) between tank "

@@ -243,6 +243,9 @@ class SloshingHypothesis(Hypothesis):
     only the water's mass and the damper between tank and water show in the response.
     """
 
+    #: damping ratio at which the unit dampers are taken (numerical differentiation: a realistic damper)
+    UNIT_ZETA = 0.5
+
     def __init__(self, location, entry, build: Callable, frequency_hz: float, start: dict, **where):
         super().__init__("sloshing", location, *_entry_fields(entry, start), **where)
         from ..modal import linearize
@@ -250,7 +253,6 @@ class SloshingHypothesis(Hypothesis):
         self.fixed = {"slosh_frequency_hz": float(frequency_hz), **self.fixed}
         self.omega = 2.0 * np.pi * float(frequency_hz)
         self.m0 = float(start["slosh_mass_kg"])
-        zeta1 = 0.5  # the unit dampers are taken at a realistic damper (numerical differentiation)
 
         def lin_at(mass, zeta, factor):
             model = build()
@@ -261,29 +263,41 @@ class SloshingHypothesis(Hypothesis):
 
         self.base = lin_at(self.m0, 0.0, 0.0)
         heavier = lin_at(2.0 * self.m0, 0.0, 0.0)
-        along = lin_at(self.m0, zeta1, 0.0)
-        across = lin_at(self.m0, zeta1, 1.0)
+        along = lin_at(self.m0, self.UNIT_ZETA, 0.0)
+        across = lin_at(self.m0, self.UNIT_ZETA, 1.0)
         for other in (heavier, along, across):
             if other.full_mass.shape != self.base.full_mass.shape:
                 raise RuntimeError("sloshing: the model's coordinates change with the parameters")
-        c1 = 2.0 * zeta1 * self.m0 * self.omega
         self.d_m = (heavier.full_mass - self.base.full_mass) / self.m0
         self.d_k = (heavier.full_stiffness - self.base.full_stiffness) / self.m0
-        self.unit_x = (along.full_damping - self.base.full_damping) / c1
-        self.unit_y = (across.full_damping - along.full_damping) / c1
-        self.p0 = self.start.copy()
+        self.unit_x, self.unit_y = self.unit_dampers(
+            self.base.full_damping, along.full_damping, across.full_damping, self.m0
+        )
+
+    def unit_dampers(self, c_none, c_along, c_both, mass: float) -> tuple:
+        """Return the unit dampers ``(U_x, U_y)`` of three full damping matrices.
+
+        They are taken without the slosh dampers, with the one along the tank and with both (at
+        :attr:`UNIT_ZETA`, lateral factor 0 and 1, slosh mass ``mass``).
+        """
+        c1 = self.damper_n_s_per_m({"slosh_damping_ratio": self.UNIT_ZETA, "slosh_mass_kg": mass})
+        return (c_along - c_none) / c1, (c_both - c_along) / c1
+
+    def damper_n_s_per_m(self, values: dict) -> float:
+        """Return the slosh damper along the tank, ``2 zeta m 2 pi f_s`` (N s/m), at entry ``values``."""
+        return 2.0 * float(values["slosh_damping_ratio"]) * float(values["slosh_mass_kg"]) * self.omega
+
+    def damping_matrix(self, values: dict, unit_x, unit_y):
+        """Return the slosh dampers' full damping matrix at entry ``values``: ``c (U_x + factor U_y)``."""
+        return self.damper_n_s_per_m(values) * (unit_x + float(values["lateral_damping_factor"]) * unit_y)
 
     def system(self, p):
         """Return the constrained system at ``p`` (mass kg, damping ratio, lateral damping factor)."""
         values = dict(zip(self.names, np.asarray(p, dtype=float), strict=True))
-        mass = values.get("slosh_mass_kg", self.m0)
-        zeta = values.get("slosh_damping_ratio", 0.0)
-        factor = values.get("lateral_damping_factor", 1.0)
-        dm = mass - self.m0
-        c_along = 2.0 * zeta * mass * self.omega
+        dm = values["slosh_mass_kg"] - self.m0
         m = self.base.full_mass + dm * self.d_m
         k = self.base.full_stiffness + dm * self.d_k
-        c = self.base.full_damping + c_along * (self.unit_x + factor * self.unit_y)
+        c = self.base.full_damping + self.damping_matrix(values, self.unit_x, self.unit_y)
         return project(m, c, k, self.base)
 
 
@@ -678,13 +692,12 @@ class CompositeHypothesis(Hypothesis):
         for i, h in enumerate(self.members):
             if not isinstance(h, SloshingHypothesis):
                 continue
-            units = []
-            for zeta, factor in ((0.0, 0.0), (0.5, 0.0), (0.5, 1.0)):
+            dampings = []
+            for zeta, factor in ((0.0, 0.0), (h.UNIT_ZETA, 0.0), (h.UNIT_ZETA, 1.0)):
                 values = [dict(s) for s in starts]
                 values[i].update(slosh_damping_ratio=zeta, lateral_damping_factor=factor)
-                units.append(lin_at(values).full_damping)
-            c1 = 2.0 * 0.5 * starts[i]["slosh_mass_kg"] * h.omega
-            self.slosh.append((i, h, (units[1] - units[0]) / c1, (units[2] - units[1]) / c1))
+                dampings.append(lin_at(values).full_damping)
+            self.slosh.append((i, h, *h.unit_dampers(*dampings, starts[i]["slosh_mass_kg"])))
             for j, (owner, _) in enumerate(specs):
                 if owner == i:
                     d_m, _, d_k = self.d[j]
@@ -721,9 +734,7 @@ class CompositeHypothesis(Hypothesis):
             now, then = self.member_values(p), self.member_values(self.p0)
             for i, h, unit_x, unit_y in self.slosh:
                 for sign, values in ((1.0, now[i]), (-1.0, then[i])):
-                    v = dict(zip(h.names, values, strict=True))
-                    c_along = 2.0 * v["slosh_damping_ratio"] * v["slosh_mass_kg"] * h.omega
-                    c += sign * c_along * (unit_x + v["lateral_damping_factor"] * unit_y)
+                    c += sign * h.damping_matrix(dict(zip(h.names, values, strict=True)), unit_x, unit_y)
         return project(m, c, k, self.base)
 
     def member_values(self, p) -> list:
