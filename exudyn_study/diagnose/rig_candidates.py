@@ -660,6 +660,20 @@ def _rear_support_hypothesis_class():
     return RearSupportHypothesis
 
 
+def rear_support_hypothesis(build, entry, side: str, **where):
+    """Return the ``rear_support_compliance`` candidate at ``side`` (vertical and fore-aft springs)."""
+    return _rear_support_hypothesis_class()(
+        "rear_support_compliance",
+        side,
+        entry,
+        build,
+        dict(REAR_SUPPORT_START),
+        basis=_rear_support_basis_xz,
+        fields=_rear_support_fields(entry),
+        **where,
+    )
+
+
 def _rear_support(ctx: CandidateContext):
     """Return the frame's rear attachments (``rear_left``, ``rear_right``) on vertical and fore-aft springs.
 
@@ -681,16 +695,11 @@ def _rear_support(ctx: CandidateContext):
             if point is not None and np.linalg.norm(ctx.markers[s][1] - point) < 0.5
         )
         ctx.say(f"linearising the rear-support hypothesis at {side}")
-        entry = ctx.entry("rear_support_compliance")
         out.append(
-            _rear_support_hypothesis_class()(
-                "rear_support_compliance",
-                side,
-                entry,
+            rear_support_hypothesis(
                 ctx.build,
-                dict(REAR_SUPPORT_START),
-                basis=_rear_support_basis_xz,
-                fields=_rear_support_fields(entry),
+                ctx.entry("rear_support_compliance"),
+                side,
                 component="frame",
                 sensors=near or ctx.component_sensors("frame"),
                 interface=f"foundation_{side}",

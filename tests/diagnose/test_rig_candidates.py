@@ -174,8 +174,8 @@ CONNECTORS = {
         {"stiffness_n_per_m": 1e9, "rotational_stiffness_n_m_per_rad": 1e7, "damping_time_s": 1e-4},
         {"stiffness_n_per_m": 3e7, "rotational_stiffness_n_m_per_rad": 2e5, "damping_time_s": 2e-3},
     ),
-    # the diagnosis's pad candidate (rig_candidates.PAD_FREE: rocking about x free, rocking about z and torsion
-    # tied to compression and shear)
+    # the diagnosis's pad candidate (rig_candidates.PAD_FREE: rocking about x free, rocking about z and
+    # torsion tied to compression and shear)
     "bushing_stiffness": (
         "bracket_left",
         None,  # rig_candidates.PAD_START
@@ -242,10 +242,7 @@ def test_connector_candidate_equals_the_model_with_the_entry_applied(model3, phy
         np.testing.assert_allclose(h.fit_values(carried), [values[n] for n in h.names])  # the inverse
     elif physics.endswith(":xz"):
         physics = "rear_support_compliance"
-        e = entry(physics)
-        h = rig_candidates._rear_support_hypothesis_class()(
-            physics, key, e, model3, dict(rig_candidates.REAR_SUPPORT_START),
-            basis=rig_candidates._rear_support_basis_xz, fields=rig_candidates._rear_support_fields(e))
+        h = rig_candidates.rear_support_hypothesis(model3, entry(physics), key)
         carried = h.entry_values(values)
         assert carried["longitudinal_compliance_m_per_n"] == pytest.approx(1 / 8e7)
         np.testing.assert_allclose(h.fit_values(carried), [values[n] for n in h.names])  # the inverse
@@ -313,11 +310,9 @@ def test_a_joint_fit_with_the_water_takes_its_trilinear_dampers_exactly(model3):
     from exudyn_study.physics import entry
     from exudyn_study.simulate import _state_space
 
-    slosh = SloshingHypothesis("tank_left", entry("sloshing"), model3, rc.SLOSH_FREQUENCY_HZ, dict(rc.SLOSH_START))
-    e = entry("rear_support_compliance")
-    rear = rc._rear_support_hypothesis_class()(
-        "rear_support_compliance", "rear_left", e, model3, dict(rc.REAR_SUPPORT_START),
-        basis=rc._rear_support_basis_xz, fields=rc._rear_support_fields(e))
+    slosh = SloshingHypothesis("tank_left", entry("sloshing"), model3, rc.SLOSH_FREQUENCY_HZ,
+                               dict(rc.SLOSH_START))
+    rear = rc.rear_support_hypothesis(model3, entry("rear_support_compliance"), "rear_left")
     comp = CompositeHypothesis([slosh, rear], model3)
     values = {
         "sloshing@tank_left:slosh_mass_kg": 90.0,
