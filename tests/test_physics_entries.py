@@ -308,6 +308,43 @@ def test_joint_stiffness_is_unloaded_at_the_reference_and_its_damper_adds_exactl
         np.testing.assert_allclose(damper, expected, rtol=0, atol=1e-6 * np.abs(expected).max())
 
 
+def test_joint_stiffness_axis_factor_scales_only_that_axis_of_the_spring_and_its_damper(bodies3):
+    """``stiffness_factor_z`` = f: the joint's spring is ``k (b_x^T b_x + b_y^T b_y + f b_z^T b_z)`` (``b_a``
+    the patch centres' relative translation along global axis ``a`` per admissible coordinate), its damper
+    ``t`` times that; the rotations keep theirs. So K(f) - K(1) = (f - 1) k b_z^T b_z exactly, and a soft
+    vertical axis lowers the modes that load the joint vertically and leaves the ones that do not."""
+    from exudyn_study import modal
+
+    k_t, k_r, tau = 2e7, 2e5, 2e-4
+
+    def matrices(factor_z):
+        model = _model3(bodies3)
+        entry("joint_stiffness").apply(model, "tank_left_front", stiffness_n_per_m=k_t,
+                                       rotational_stiffness_n_m_per_rad=k_r, damping_time_s=tau,
+                                       stiffness_factor_z=factor_z)
+        model.assemble()
+        lin = modal.linearize(model)
+        return model, lin
+
+    model, lin1 = matrices(1.0)
+    n_q = lin1.nullspace.shape[1]
+    _, u0, _ = _patch_motion(model, "frame.tank_left_front", n_q)
+    _, u1, _ = _patch_motion(model, "tank_left.tank_left_front", n_q)
+    b_z = ((u1 - u0) @ lin1.nullspace.T)[2:3]  # vertical relative translation
+    _, lin_soft = matrices(0.1)
+    expected = (0.1 - 1.0) * k_t * b_z.T @ b_z
+    np.testing.assert_allclose(lin_soft.stiffness - lin1.stiffness, expected, rtol=0,
+                               atol=1e-6 * np.abs(expected).max())
+    np.testing.assert_allclose(lin_soft.damping - lin1.damping, tau * expected, rtol=0,
+                               atol=1e-6 * tau * np.abs(expected).max())
+    # the default factors are the isotropic joint
+    default = _model3(bodies3)
+    entry("joint_stiffness").apply(default, "tank_left_front", stiffness_n_per_m=k_t,
+                                   rotational_stiffness_n_m_per_rad=k_r, damping_time_s=tau)
+    default.assemble()
+    np.testing.assert_array_equal(modal.linearize(default).stiffness, lin1.stiffness)
+
+
 def test_joint_stiffness_rotational_damping_factor_scales_the_damping_of_the_rocking_modes(bodies3):
     """C = t (K_t + f K_r): on an otherwise undamped model each mode's damping ratio is, to first order,
     ``zeta_t + f zeta_r`` (translation's and rotation's shares): f = 0, 1, 3 lie on one line per mode, and

@@ -172,9 +172,10 @@ def _add_joint_stiffness(model, location: str, params: dict) -> dict:
     mbs = model.mbs
     joint, m0, m1, kind = _joint_markers(model, location)
     k_t, k_r = params["stiffness_n_per_m"], params["rotational_stiffness_n_m_per_rad"]
-    k = np.diag([k_t] * 3 + [k_r] * 3)
+    k_axes = [k_t * params[f"stiffness_factor_{axis}"] for axis in "xyz"]
+    k = np.diag(k_axes + [k_r] * 3)
     tau = params["damping_time_s"]
-    d = np.diag([tau * k_t] * 3 + [tau * params["rotational_damping_factor"] * k_r] * 3)
+    d = np.diag([tau * k_a for k_a in k_axes] + [tau * params["rotational_damping_factor"] * k_r] * 3)
     s0, s1, offset = _mid_point_markers(model, m0, m1)
     if "RigidBodySpringDamper" in kind:  # a bushing model: change the element
         mbs.SetObjectParameter(joint, "markerNumbers", [s0, s1])
@@ -198,7 +199,9 @@ Physics: Model 3 joins each tank bracket and mudguard bracket to the frame by a 
 at the interface patches. A real bolted joint is compliant (contact, bolt stretch, plate
 bending around the bolts). The fixed joint is released and a 6-DOF linear spring-damper
 joins the same two patch markers: translational ``stiffness_n_per_m`` and rotational
-``rotational_stiffness_n_m_per_rad`` on the diagonal (global axes), damping
+``rotational_stiffness_n_m_per_rad`` on the diagonal (global axes; the translational one times
+``stiffness_factor_x``/``_y``/``_z`` per axis, default 1: a bolted bracket is stiffer in the
+plane of its clamped plates than across them, where the plates bend around the bolts), damping
 ``damping_time_s`` times the stiffness (stiffness-proportional, ``zeta ~ pi f t``), in the
 rotations ``rotational_damping_factor`` times that: a joint dissipates differently in
 translation (shear and compression of the clamped contact and the bolts) and in rotation
@@ -225,6 +228,12 @@ that shear or compress it.
         Parameter("damping_time_s", "s", 0.0, 1e-2, 1e-4, "stiffness-proportional damping factor"),
         Parameter("rotational_damping_factor", "1", 0.0, 100.0, 1.0,
                   "damping time in the rotations / damping_time_s (rocking vs shear of the joint)"),
+        Parameter("stiffness_factor_x", "1", 1e-3, 1e3, 1.0,
+                  "translational stiffness along global x / stiffness_n_per_m"),
+        Parameter("stiffness_factor_y", "1", 1e-3, 1e3, 1.0,
+                  "translational stiffness along global y / stiffness_n_per_m"),
+        Parameter("stiffness_factor_z", "1", 1e-3, 1e3, 1.0,
+                  "translational stiffness along global z / stiffness_n_per_m"),
     ),
     add_items=_add_joint_stiffness,
     locations="a model-3 component joint 'component.interface' (e.g. 'tank_left.tank_left_front', "
