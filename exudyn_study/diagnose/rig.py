@@ -749,7 +749,8 @@ def _final_refit(records, accepted, build, ev, channels, gains, st, say) -> dict
     over part of its effect (a drive linkage's mass standing in for tank mounts that round 1 lacked).
     All parameters of the linear findings carried into the model (``records`` whose ``accepted`` entry
     is a linear hypothesis) are fitted together from their values (:class:`CompositeHypothesis` on the
-    nominal model plus the other findings), on ``ev``. Each member is judged again: a parameter at a
+    nominal model plus the other findings), on ``ev``; a parameter that ended at a bound in its round
+    (the data did not determine it) is held there. Each member is judged again: a parameter at a
     bound (within 1 % of its log range), a firm parameter not identifiable (relative std above
     ``max_relative_std``) and (with two
     or more recordings) parameters that drift between the recordings (:func:`_drift`) are flagged.
@@ -785,9 +786,17 @@ def _final_refit(records, accepted, build, ev, channels, gains, st, say) -> dict
         inside = (lower + 1e-3 * np.abs(lower), h.upper - 1e-3 * np.abs(h.upper))
         h.start = np.clip(h.fit_values(values), *inside)
     labels = [r["h"].label for r in members]
+    # a parameter that ended at a bound in its round was not determined by the data: it stays there (freed,
+    # it wanders on the noise: a rigid support's fore-aft stiffness went to 2e5 N/m, the refit worsened the
+    # held-out error and was not adopted, and the vertical stiffnesses it had corrected were lost)
+    free = {}
+    for k, r in enumerate(members):
+        bound = np.asarray(r.get("at_bound", np.zeros(len(r["h"].names), bool)), dtype=bool)
+        names = [n for n, b in zip(r["h"].names, bound, strict=True) if not b]
+        free[k] = names or list(r["h"].names)
     say(f"final joint refit of the {len(members)} linear findings: {', '.join(labels)}")
     try:
-        comp = CompositeHypothesis([r["h"] for r in members], build_rest)
+        comp = CompositeHypothesis([r["h"] for r in members], build_rest, free)
     except Exception as exc:  # noqa: BLE001 - entries that cannot be combined: no refit
         say(f"the findings cannot be refitted together: {exc}")
         return None
@@ -812,17 +821,18 @@ def _final_refit(records, accepted, build, ev, channels, gains, st, say) -> dict
     for k, r in enumerate(members):
         h = r["h"]
         spec = {n: j for j, (i, n) in enumerate(comp.specs) if i == k}
-        std_k = np.array([std[spec[n]] for n in h.names])
-        bound_k = np.array([bool(at_bound[spec[n]]) for n in h.names])
+        # a parameter held at the bound it ended at in its round: still at it, no std
+        std_k = np.array([std[spec[n]] if n in spec else 0.0 for n in h.names])
+        bound_k = np.array([bool(at_bound[spec[n]]) if n in spec else True for n in h.names])
         flags = []
-        weak = [n for n in h.names if n not in h.may_vanish and not good[spec[n]] and not at_bound[spec[n]]]
+        weak = [n for n in spec if n not in h.may_vanish and not good[spec[n]] and not at_bound[spec[n]]]
         if weak:
             flags.append(
                 "not identifiable in the final joint refit of all findings: "
                 + ", ".join(f"{n} (relative std {rel_std[spec[n]]:.2g})" for n in weak)
             )
         if drift is not None:
-            moved = [n for n in h.names if comp.names[spec[n]] in drift["drifting"]]
+            moved = [n for n in spec if comp.names[spec[n]] in drift["drifting"]]
             if moved:
                 flags.append(
                     "drifts between the training recordings in the final joint refit: "
@@ -1612,6 +1622,7 @@ def diagnose_rig(
                     "lin_before": lin_before,
                     "lin_after": lin_after,
                     "located": located,
+                    "at_bound": at_bound,  # the round's: what the data did not determine
                 }
             )
             if h.carry != "gains":
