@@ -25,8 +25,11 @@ Session 8 (the sloshing candidate, the rear supports fitted fore-aft, the pad's 
 free, joint fits of up to 10): scenarios 0-9 and 13-16 (``--start 13 --n 4``) and the 3 without an
 effect, at load 3-4 (two runs, the thesis diagnosis and the test suite alongside): 14/14 effects
 named, located, fitted within 15 % and held-out error halved (the four Model-3 bushing scenarios
-among them: 530-764 s each at that load); 3/3 no-effect scenarios without a finding. Scenarios
-10-12 and 17-19 (sensor gain x4, drive linkage x2 on Model 1) were not re-run.
+among them: 530-764 s each at that load); 3/3 no-effect scenarios without a finding. Session 9
+(``--start 10 --n 3`` and ``--start 17 --n 3``, load 2-3): scenarios 10-12 and 17-19 (sensor gain x4,
+drive linkage x2 on Model 1) 6/6, 35-108 s each; with session 8's, all 20 effects and the 3 without
+one pass on the current candidates. (Those six ran before the final refit held the parameters that
+ended at a bound in their round; a single-effect scenario has one finding and no final refit.)
 
 Run: ``python3 benchmarks/bench_diagnose_rig.py [--n 20] [--n-none 3] [--out DIR]``
 (about 2-4 min per scenario on 2 cores). Results: ``DIR/results.json`` and a table on stdout.
