@@ -216,13 +216,14 @@ Signature: modes that load the joint drop in frequency, to first order
 joint carries in the mass-normalised mode); mostly the component's modes; modes that do not
 load the joint (frame-only modes) barely move; the component's sensors (``ATV*``/``ATH*`` for
 a tank, ``ASV*``/``ASH*`` for a bracket) show the lowered resonances. The damping a mode gets is
-``zeta = (t k_t |delta_t|^2 + f t k_r |delta_r|^2) / (2 omega)`` (first order; ``delta`` the
-joint's relative translation and rotation in the mass-normalised mode, ``f`` the rotational
-factor): the factor scales the damping of the modes that rock the joint and leaves the modes
-that shear or compress it.
+``zeta = (t sum_a k_a delta_a^2 + f t k_r |delta_r|^2) / (2 omega)`` (first order; ``delta`` the
+joint's relative translation and rotation in the mass-normalised mode, ``k_a`` the translational
+stiffness along axis ``a`` with its factor, ``f`` the rotational factor): the factor scales the
+damping of the modes that rock the joint and leaves the modes that shear or compress it.
 """,
     parameters=(
-        Parameter("stiffness_n_per_m", "N/m", 1e4, 1e11, 5e7, "translational joint stiffness (each axis)"),
+        Parameter("stiffness_n_per_m", "N/m", 1e4, 1e11, 5e7,
+                  "translational joint stiffness (each axis, times its stiffness_factor)"),
         Parameter("rotational_stiffness_n_m_per_rad", "N m/rad", 1e2, 1e9, 5e5,
                   "rotational joint stiffness (each axis)"),
         Parameter("damping_time_s", "s", 0.0, 1e-2, 1e-4, "stiffness-proportional damping factor"),

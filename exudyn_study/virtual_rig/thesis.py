@@ -276,8 +276,8 @@ THESIS_FIT = {
             "a tank bouncing on soft mounts couples with it but the pair stays 5.6 Hz apart (40.2 and 45.8 "
             "Hz, left tank at 2.5e7 N/m), and a soft front mount lets the tank pitch and yaw about its rear "
             "one, two modes 1 Hz apart that mix with the brackets' x modes; the best (right front mount "
-            "1.8e7 N/m, supports 1.8e7 N/m, fore-aft 7e-9 m/N) puts modes at 41.49 Hz / 1.17 % and 43.68 "
-            "Hz / 1.60 %, neither frame dominated, and the right bracket's 47.6 Hz mode to 45.0 Hz / 1.46 % "
+            "1.8e7 N/m, supports 1.8e7 N/m, fore-aft 7e-9 m/N) puts modes at 41.49 Hz / 1.17 % and 43.68 Hz "
+            "/ 1.60 %, neither frame dominated, and the right bracket's 47.6 Hz mode to 45.0 Hz / 1.46 % "
             "(the mount's rocking damper). The joint entry's stiffness is the same on all three axes, so "
             "every softer mount also moves the tanks' fore-aft modes (21.2 -> 19.5-20.6 Hz). Session 9: with "
             "the entry's per-axis factors (stiffness_factor_x/y/z) the right tank's mounts soft only "
@@ -286,15 +286,13 @@ THESIS_FIT = {
             "translation; the frame's modal damping 0.1 throughout; the left tank's rear mount 7e-5 s in "
             "rocking; the left bracket's 135 Hz body mode 0.194) put the pair at 41.3 / 1.18 % and 44.6 Hz / "
             "2.02 % (the frame bouncing with the right tank pitching, and with its front) and leave the "
-            "other "
-            "rows: 9 of 10 within 10 % on each of seeds 0-3, only the 15.00 Hz row's damping missed. That "
-            "truth was not adopted: the diagnosis fails on it (bench_diagnose_thesis.py, 390 s, with a joint "
-            "candidate that also fits the vertical stiffness apart): round 1 lands in a wrong basin (rear "
-            "supports 3-4e6 N/m for 2e7, the linkage's mass at its 500 kg bound), held-out error 4.62 -> "
-            "1.09 "
-            "(session 8's truth: -> 0.096), the cubic not found; without that candidate round 1 switched the "
-            "response off and nothing was found. Issue 8's thesis acceptance needs the diagnosis to work on "
-            "the truth, so the per-axis truth waits for a diagnosis that finds it"
+            "other rows: 9 of 10 within 10 % on each of seeds 0-3, only the 15.00 Hz row's damping missed. "
+            "That truth was not adopted: the diagnosis fails on it (bench_diagnose_thesis.py, 390 s, with a "
+            "joint candidate that also fits the vertical stiffness apart): round 1 lands in a wrong basin "
+            "(rear supports 3-4e6 N/m for 2e7, the linkage's mass at its 500 kg bound), held-out error 4.62 "
+            "-> 1.09 (session 8's truth: -> 0.096), the cubic not found; without that candidate round 1 "
+            "switched the response off and nothing was found. Issue 8's thesis acceptance needs the "
+            "diagnosis to work on the truth, so the per-axis truth waits for a diagnosis that finds it"
         ),
         (
             "15.00 Hz row damping (the tanks' lateral mode with the left bracket z, 0.95 % vs 2.18 %): every "
@@ -303,20 +301,18 @@ THESIS_FIT = {
             "tank mount's rotational damping (4 ms) +0.8-1.1/+1.5-1.7/0; the frame's 52.5 Hz body mode's "
             "modal damping x60 +1.27/+0.39/+0.73; best combination (frame x40, lateral factor 0.5) 1.67 % "
             "with the sway at 1.57 % but the right bracket at 0.97 % (Table 1: 0.53 %). Session 9 "
-            "(first-order "
-            "sensitivities per damper, on the per-axis trial truth below): the mounts' rocking dampers and "
-            "the "
-            "water's lateral damper give this mode 0.4-0.64 times what they give the sway (both swing the "
-            "tanks about their mounts and across the water), so from them it gets at most ~1.0 % with the "
-            "sway at its 1.6 %; the rest must come from the frame's lateral motion, which the right "
-            "bracket's "
-            "mode shares (per unit modal damping ratio, 15.8 / 11.8 / 47.4 Hz: the frame's 52.5 Hz body mode "
-            "14.4 / 4.1 / 8.4, its 44.0 Hz one 4.9 / 1.7 / 22.4; a damped lateral compliance of the rear "
-            "supports, 1e-7 m/N and 1 ms: +0.29 / +0.12 / +0.29 points); the mounts' lateral stiffness does "
-            "not move the mode (it swings the tanks, the rotational stiffness holds it). A least-squares "
-            "search over the tanks' rotational stiffnesses (left x0.84, right x1.36), the mounts' rocking "
-            "dampers and the water's damping (lateral factor 1.44) reached 1.39 % here (15.9 Hz) with the "
-            "sway at 1.61 % and the tank z mode at 1.56 %: identified about 1.8 %, still short of 1.96 %"
+            "(first-order sensitivities per damper, on the per-axis trial truth above): the mounts' rocking "
+            "dampers and the water's lateral damper give this mode 0.4-0.64 times what they give the sway "
+            "(both swing the tanks about their mounts and across the water), so from them it gets at most "
+            "~1.0 % with the sway at its 1.6 %; the rest must come from the frame's lateral motion, which "
+            "the right bracket's mode shares (per unit modal damping ratio, 15.8 / 11.8 / 47.4 Hz: the "
+            "frame's 52.5 Hz body mode 14.4 / 4.1 / 8.4, its 44.0 Hz one 4.9 / 1.7 / 22.4; a damped lateral "
+            "compliance of the rear supports, 1e-7 m/N and 1 ms: +0.29 / +0.12 / +0.29 points); the mounts' "
+            "lateral stiffness does not move the mode (it swings the tanks, the rotational stiffness holds "
+            "it). A least-squares search over the tanks' rotational stiffnesses (left x0.84, right x1.36), "
+            "the mounts' rocking dampers and the water's damping (lateral factor 1.44) reached 1.39 % here "
+            "(15.9 Hz) with the sway at 1.61 % and the tank z mode at 1.56 %: identified about 1.8 %, still "
+            "short of 1.96 %"
         ),
         (
             "reached with the water (session 7; the dry truth missed them): the tank sway and the second "
@@ -326,14 +322,14 @@ THESIS_FIT = {
             "the 14.15 Hz row (the dry truth's second z mode at 15.3 Hz)"
         ),
         (
-            "15.00 Hz left mudguard bracket: the truth has two modes near 15 Hz, the left bracket's z "
-            "(14.96 Hz, 1.45 %, paired with the 14.15 Hz row, +6 %) and the tanks moving sideways with the "
-            "bracket and the frame (15.83 Hz, 0.95 %, paired with the 15.00 Hz row, +6 %). The pad's rocking "
-            "modulus about x (0.45) puts the bracket's mode 0.9 Hz below the other, as in Table 1 (0.85 Hz); "
-            "at 0.85 they were 0.2 Hz apart, one spectral line, and the identification merged or mixed them "
-            "(damping 1.1/2.8 % for 1.0/2.3 %). The tank mounts' rocking stiffnesses move the 15.83 Hz mode "
-            "by < 0.4 % per 20 %. Its damping is the slosh damper's (tanks y) and the frame's; 2 % there "
-            "overdamps the sway, which moves the tanks the same way"
+            "15.00 Hz left mudguard bracket: the truth has two modes near 15 Hz, the left bracket's z (14.96 "
+            "Hz, 1.45 %, paired with the 14.15 Hz row, +6 %) and the tanks moving sideways with the bracket "
+            "and the frame (15.83 Hz, 0.95 %, paired with the 15.00 Hz row, +6 %). The pad's rocking modulus "
+            "about x (0.45) puts the bracket's mode 0.9 Hz below the other, as in Table 1 (0.85 Hz); at 0.85 "
+            "they were 0.2 Hz apart, one spectral line, and the identification merged or mixed them (damping "
+            "1.1/2.8 % for 1.0/2.3 %). The tank mounts' rocking stiffnesses move the 15.83 Hz mode by < 0.4 "
+            "% per 20 %. Its damping is the slosh damper's (tanks y) and the frame's; 2 % there overdamps "
+            "the sway, which moves the tanks the same way"
         ),
         (
             "the identification's scatter: with 120 s of white noise at 0.2 Hz resolution the sway's "
@@ -347,12 +343,10 @@ THESIS_FIT = {
 def thesis_augmentations(parameters: dict = THESIS_PARAMETERS) -> tuple[Augment, ...]:
     """Return the catalogue entries of the thesis truth (``parameters``: :data:`THESIS_PARAMETERS` layout)."""
     aug = []
-    for key, (kt, kr, t, *rest) in parameters["joints"].items():
+    for key, (kt, kr, t, *factor) in parameters["joints"].items():
         values = {"stiffness_n_per_m": kt, "rotational_stiffness_n_m_per_rad": kr, "damping_time_s": t}
-        if rest:
-            values["rotational_damping_factor"] = rest[0]
-        if len(rest) > 1:  # per-axis translational factors {'stiffness_factor_z': ...}
-            values.update(rest[1])
+        if factor:
+            values["rotational_damping_factor"] = factor[0]
         aug.append(Augment("joint_stiffness", key, values))
     aug.append(Augment("drive_linkage_compliance", None, dict(parameters["drive_linkage"])))
     for side, (kz, cx, t) in parameters.get("rear_support", {}).items():
