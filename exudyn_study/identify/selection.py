@@ -18,11 +18,10 @@ therefore
    the order is high enough to split it), and reports each with the median of
    its members as estimate and their standard deviation as uncertainty;
 4. rejects *satellites*: an accepted cluster closer than ``satellite_frequency``
-   (relative) or than ``satellite_bandwidths`` half-power bandwidths (default one half: inside
-   its half-power band) to an
-   accepted cluster present at more orders, with the same shape (median MAC over
-   the member pairs above ``satellite_mac``). A lightly damped mode resolved by
-   few spectral lines is smoothed by the spectral window into a peak no single
+   (relative) or than ``satellite_bandwidths`` half-power bandwidths (at most
+   ``satellite_lines`` spectral lines) to an accepted cluster present at more orders, with the
+   same shape (median MAC over the member pairs above ``satellite_mac``). A lightly
+   damped mode resolved by few spectral lines is smoothed by the spectral window into a peak no single
    pole pair fits, and over-modelling then adds a consistent extra pole pair
    beside it with the mode's own shape. Two genuine modes that close would need
    distinct shapes to be told apart from the data at all;
@@ -152,7 +151,8 @@ def select_modes(
     max_damping: float = 0.2,
     satellite_frequency: float = 0.015,
     satellite_mac: float = 0.9,
-    satellite_bandwidths: float = 0.5,
+    satellite_bandwidths: float = 1.0,
+    satellite_lines: float = 5.0,
     edge_lines: float = 2.0,
     pin_hz: Sequence[float] = (),
     drop_hz: Sequence[float] = (),
@@ -178,13 +178,19 @@ def select_modes(
         rejected.
     satellite_bandwidths : float, optional
         The satellite distance is at least this many half-power bandwidths
-        (``2 zeta f``) of the better-covered cluster (default 0.5: its half-power
-        band reaches ``zeta f`` either side): same-shape poles inside that band are
-        one smoothed peak, not two modes. A whole bandwidth either side (1, before
-        session 9) took a genuine mode for a satellite beside a well-damped one:
-        the thesis rig's left-bracket modes at 32.8 Hz (5.5 %) and 36.8 Hz, 11 %
-        apart and the same shape at the sensors (MAC > 0.9), as the thesis's own
-        modes 6 and 7 ("left mudguard bracket x and z", Table 1).
+        (``2 zeta f``) of the better-covered cluster (default 1): same-shape poles
+        that close to a mode resolved by few lines are one peak smoothed by the
+        spectral window, not two modes.
+    satellite_lines : float, optional
+        The bandwidth term reaches at most this many spectral lines (default 5, the
+        lines per half-power bandwidth from which the window no longer smooths a
+        peak, :mod:`~exudyn_study.identify.resolution`; no cap without a known
+        resolution). Uncapped, a whole bandwidth beside a well-damped mode took a
+        genuine mode for a satellite: the thesis rig's left-bracket modes at 32.8 Hz
+        (5.5 %, 18 lines per bandwidth at 0.2 Hz) and 36.8 Hz, 11 % apart with the
+        same shape at the sensors (MAC > 0.9), as the thesis's modes 6 and 7 ("left
+        mudguard bracket x and z", Table 1); half a bandwidth let the satellite of a
+        1.2 % mode 2 % away through.
     edge_lines : float, optional
         Clusters closer than this many spectral lines to an edge of the fitted
         band are rejected (default 2; reason 'edge'): a peak cut by the band edge
@@ -265,7 +271,10 @@ def select_modes(
             if not cj.accepted:
                 continue
             rel = abs(ci.frequency_hz - cj.frequency_hz) / max(ci.frequency_hz, cj.frequency_hz)
-            near = max(satellite_frequency, satellite_bandwidths * 2 * cj.damping_ratio)
+            band = satellite_bandwidths * 2 * cj.damping_ratio
+            if poles.resolution_hz:
+                band = min(band, satellite_lines * poles.resolution_hz / cj.frequency_hz)
+            near = max(satellite_frequency, band)
             if rel < near and _cluster_mac(poles, ci, cj) > satellite_mac:
                 clusters[i] = _replace(ci, accepted=False, reason="satellite")
                 break
@@ -299,7 +308,8 @@ def select_modes(
     settings = {"tol_frequency": tol_frequency, "tol_mac": tol_mac,
                 "min_coverage": min_coverage, "max_damping": max_damping,
                 "satellite_frequency": satellite_frequency, "satellite_mac": satellite_mac,
-                "satellite_bandwidths": satellite_bandwidths, "edge_lines": edge_lines,
+                "satellite_bandwidths": satellite_bandwidths, "satellite_lines": satellite_lines,
+                "edge_lines": edge_lines,
                 "pin_hz": [float(x) for x in pin_hz], "drop_hz": [float(x) for x in drop_hz]}
     return Selection(clusters=tuple(clusters), settings=settings)
 

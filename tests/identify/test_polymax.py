@@ -78,8 +78,9 @@ def test_a_mode_beside_a_well_damped_one_with_the_same_shape_is_not_a_satellite(
     """Two genuine modes 11 % apart with nearly one shape at the sensors, the lower one 5.5 % damped
     (the thesis rig's left-bracket modes 6 and 7, Table 1: 32.69 Hz / 5.47 % and 36.64 Hz / 3.46 %,
     both "left mudguard bracket x and z"). The upper one lies outside the lower one's half-power band
-    (+-5.5 %), so it is no smoothed-peak satellite and both are selected; with the earlier default
-    (a whole bandwidth, 11 %, either side) the upper one was rejected."""
+    (the lower one spans 18 lines per bandwidth, so the satellite distance is capped at 5 lines, 3 %),
+    so it is no smoothed-peak satellite and both are selected; without the cap (a whole bandwidth, 11 %)
+    the upper one was rejected."""
     fn = np.array([32.7, 36.7])
     zeta = np.array([0.055, 0.035])
     poles = modal_to_pole(fn, zeta)
@@ -93,7 +94,7 @@ def test_a_mode_beside_a_well_damped_one_with_the_same_shape_is_not_a_satellite(
     p = polymax(h, f, range(2, 31), band_hz=(20, 50))
     got = np.array([c.frequency_hz for c in select_modes(p).modes])
     np.testing.assert_allclose(got, fn, rtol=1e-3)
-    whole_band = np.array([c.frequency_hz for c in select_modes(p, satellite_bandwidths=1.0).modes])
+    whole_band = np.array([c.frequency_hz for c in select_modes(p, satellite_lines=np.inf).modes])
     assert whole_band.size == 1  # the old rule took the 36.7 Hz mode for a satellite
 
 
