@@ -93,9 +93,9 @@ frequency within 10 % 9/10            9/10            9/10            9/10
 Left over: the tanks' fore-aft mode (27.7 Hz, not in Table 1) and, with seeds 1 and 3, a 21.1
 Hz pole of MPC 0.3-0.6 beside the yaw. Until session 9, seed 1 had no 36.6 Hz mode (7/10): the
 automatic selection took it for a satellite of the 32.8 Hz one (the same shape at the sensors, MAC
-1.00, within one whole half-power bandwidth of that 5.5 % damped mode); a satellite must now lie
-inside the half-power band (:func:`exudyn_study.identify.select_modes`), and the other seeds' rows
-came out unchanged (re-run, session 9). The
+1.00, within one whole half-power bandwidth of that 5.5 % damped mode); the satellite distance is
+now capped at 5 spectral lines (:func:`exudyn_study.identify.select_modes`), and the other seeds'
+rows came out unchanged (re-run, session 9). The
 sway's identified damping scatters by seed (1.3-1.9 % for a truth of 1.56 %: the vertical drive
 hardly excites a lateral mode), so that row passes or fails by seed; the left bracket's z mode
 is identified 1.25-1.3 times its truth's damping (two modes 0.9 Hz apart at 0.2 Hz resolution).
