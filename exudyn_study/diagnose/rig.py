@@ -127,7 +127,8 @@ class RigDiagnosisSettings:
     drift_nfev: int = 10
     # after the rounds, the linear findings carried into the model are refitted together (all their
     # parameters; spectral or time domain as the rounds' last fit) and judged again; the refit is kept
-    # if it lowers the training residual and does not raise the held-out error
+    # if it lowers the training residual and does not raise the held-out error. If the free refit is not
+    # kept, it is tried once more with the parameters that ended at a bound in their rounds held there
     final_refit: bool = True
     final_nfev: int = 20
     # a nonlinear finding fitted on the level-dependent share is proven on that share at a held-out level
@@ -610,7 +611,35 @@ def _fit_together(
     if not math.isfinite(rss):
         return []
     jac = info["jac"]  # the refits below keep it (chord steps: one evaluation per step)
-    held_out = {}  # composite index -> value of the members taken out
+    # a damping time at its upper bound: the data want more damping than that spring plausibly gives (it
+    # stands in for damping elsewhere, the water's or another joint's, or flattens a misplaced
+    # resonance); it is held at its start and the others refitted, and stays held below
+    pinned = {
+        j: float(comp.start[j])
+        for j, (_, n) in enumerate(comp.specs)
+        if n == "damping_time_s" and p[j] >= comp.upper[j] * (1.0 - 1e-3)
+    }
+    if pinned and len(pinned) < p.size:
+        say("  damping held at its start (it ran to its upper bound): "
+            + ", ".join(f"{comp.members[comp.specs[j][0]].label}" for j in pinned))
+        sub = HeldHypothesis(comp, pinned)
+        sub.start = np.clip(np.delete(p, list(pinned)), sub.lower, sub.upper)
+        info_sub = {}
+        p_sub, std_sub, rss_sub, at_sub, nfev_sub = _fit(
+            sub, ev_fit, channels, st.fit_nfev_composite, info=info_sub
+        )
+        if math.isfinite(rss_sub):
+            p, rss = sub.full(p_sub), rss_sub
+            std, at_bound = np.zeros(p.size), np.zeros(p.size, bool)
+            std[sub.keep], at_bound[sub.keep] = std_sub, at_sub
+            jac = jac.copy()
+            jac[:, sub.keep] = info_sub["jac"]
+            nfev += nfev_sub
+        else:
+            pinned = {}
+    else:
+        pinned = {}
+    held_out = dict(pinned)  # composite index -> value of the members taken out (and the pinned dampings)
     hold_errs = _holdout_errors(ev_hold, comp.system(p), gains)
     hold_err = float(np.mean(hold_errs))
     hold_err0 = _holdout_error(ev_hold, system_now, gains)
@@ -620,12 +649,13 @@ def _fit_together(
         if held is None:
             verdicts[k] = None
             continue
+        n_k = len(set(held) - set(pinned))  # parameters taken out beyond the pinned dampings
+        held = {**pinned, **held}
         sub = HeldHypothesis(comp, held)
         sub.start = np.clip(np.delete(p, list(held)), sub.lower, sub.upper)
         p_k, _, rss_k, _, _ = _fit(sub, ev_fit, channels, st.member_nfev, jac=lambda x, c=sub.keep: jac[:, c])
         errs_k = _holdout_errors(ev_hold, sub.system(p_k), gains) if math.isfinite(rss_k) else None
         err_k = float(np.mean(errs_k)) if errs_k is not None else math.nan
-        n_k = len(held)
         d_aic = _aic(rss, p.size, n_eff) - _aic(rss_k, p.size - n_k, n_eff)
         # the member must pay on every held-out recording (each another signal or level)
         gain = float(np.min(1.0 - hold_errs / errs_k)) if math.isfinite(err_k) else math.nan
@@ -640,7 +670,7 @@ def _fit_together(
         )
         if not pays:
             held_out.update(held)
-    if held_out:
+    if len(held_out) > len(pinned):
         if len(held_out) == p.size:
             say("no member of the joint fit pays for itself")
             p_all = p
@@ -742,26 +772,28 @@ def _finding(h, p, std, at_bound, flags, band_hz, level_dependent, explanation, 
     )
 
 
-def _final_refit(records, accepted, build, ev, channels, gains, st, say) -> dict | None:
+def _final_refit(
+    records, accepted, build, ev, channels, gains, st, say, hold_at_bound: bool = True
+) -> dict | None:
     """Refit the linear findings carried into the model together; judge them again.
 
     Each finding was fitted in its round against the model of that round; later findings can take
     over part of its effect (a drive linkage's mass standing in for tank mounts that round 1 lacked).
     All parameters of the linear findings carried into the model (``records`` whose ``accepted`` entry
     is a linear hypothesis) are fitted together from their values (:class:`CompositeHypothesis` on the
-    nominal model plus the other findings), on ``ev``; a parameter that ended at a bound in its round
-    (the data did not determine it) is held there. Each member is judged again: a parameter at a
-    bound (within 1 % of its log range), a firm parameter not identifiable (relative std above
-    ``max_relative_std``) and (with two
-    or more recordings) parameters that drift between the recordings (:func:`_drift`) are flagged.
+    nominal model plus the other findings), on ``ev``; with ``hold_at_bound`` a parameter that ended at a
+    bound in its round (the data did not determine it) is held there. Each member is judged again: a
+    parameter at a bound (within 1 % of its log range), a firm parameter not identifiable (relative std
+    above ``max_relative_std``) and (with two or more recordings) parameters that drift between the
+    recordings (:func:`_drift`) are flagged.
 
     Returns
     -------
     dict or None
         ``members`` (the records), ``values``, ``std``, ``at_bound`` (per member, its parameter
         order), ``flags`` (per member, sentences), ``rss_before``/``rss_after`` (training residual at
-        the rounds' values and after the refit) and ``meta``; None with fewer than two linear findings
-        or when they cannot be combined.
+        the rounds' values and after the refit) and ``meta`` (with ``held_at_bound``: the parameters
+        held); None with fewer than two linear findings or when they cannot be combined.
     """
     from ..physics import entry
     from .rig_hypotheses import CompositeHypothesis
@@ -786,15 +818,22 @@ def _final_refit(records, accepted, build, ev, channels, gains, st, say) -> dict
         inside = (lower + 1e-3 * np.abs(lower), h.upper - 1e-3 * np.abs(h.upper))
         h.start = np.clip(h.fit_values(values), *inside)
     labels = [r["h"].label for r in members]
-    # a parameter that ended at a bound in its round was not determined by the data: it stays there (freed,
-    # it wanders on the noise: a rigid support's fore-aft stiffness went to 2e5 N/m, the refit worsened the
-    # held-out error and was not adopted, and the vertical stiffnesses it had corrected were lost)
-    free = {}
+    # a parameter that ended at a bound in its round was not determined by the data; held, it stays there
+    # (freed, it may wander on the noise: a rigid support's fore-aft stiffness went to 2e5 N/m, the refit
+    # worsened the held-out error and was not adopted, and the vertical stiffnesses it had corrected were
+    # lost; the caller tries the free refit first and this one when that is not adopted)
+    free, held = {}, []
     for k, r in enumerate(members):
         bound = np.asarray(r.get("at_bound", np.zeros(len(r["h"].names), bool)), dtype=bool)
+        if not hold_at_bound:
+            bound = np.zeros_like(bound)
         names = [n for n, b in zip(r["h"].names, bound, strict=True) if not b]
         free[k] = names or list(r["h"].names)
-    say(f"final joint refit of the {len(members)} linear findings: {', '.join(labels)}")
+        held += [f"{r['h'].label}:{n}" for n in r["h"].names if n not in free[k]]
+    say(
+        f"final joint refit of the {len(members)} linear findings: {', '.join(labels)}"
+        + (f" (held at the bounds their rounds ended at: {', '.join(held)})" if held else "")
+    )
     try:
         comp = CompositeHypothesis([r["h"] for r in members], build_rest, free)
     except Exception as exc:  # noqa: BLE001 - entries that cannot be combined: no refit
@@ -852,6 +891,7 @@ def _final_refit(records, accepted, build, ev, channels, gains, st, say) -> dict
         "nfev": nfev,
         "parameters": {n: float(v) for n, v in zip(comp.names, p, strict=True)},
         "at_bound": [n for n, b in zip(comp.names, at_bound, strict=True) if b],
+        "held_at_bound": held,
         "flags": {lab: f for lab, f in zip(labels, out_flags, strict=True) if f},
     }
     if drift is not None:
@@ -1232,22 +1272,27 @@ def diagnose_rig(
         t_refit = time.perf_counter()
         error_now = float(np.mean([summary_error(e) for e in ev_train.errors(sims_tr)]))
         ev_final = ev_spectral if error_now > st.spectral_above_error else ev_train
-        refit = _final_refit(records, accepted, build, ev_final, channels, gains_r, st, say)
-        if refit is not None:
-            hold_before = float(np.mean([summary_error(e) for e in ev_hold.errors(sims_ho)]))
+        hold_before = float(np.mean([summary_error(e) for e in ev_hold.errors(sims_ho)]))
+
+        def rebuild():
+            nonlocal model_r, locations, markers, sys_r
+            model_r = build_current()
+            locations, markers, sys_r = assembled(model_r)
+            _set_offsets(evaluators, sys_r)
+            return compare(sys_r, gains_r)
+
+        # free first (every parameter may move); if that is not adopted, again with the parameters that ended
+        # at a bound in their rounds held there (freed, the undetermined ones can wander on the noise)
+        tried = []
+        for hold in (False, True):
+            refit = _final_refit(records, accepted, build, ev_final, channels, gains_r, st, say, hold)
+            if refit is None:
+                break
             saved = list(accepted)
             refit["meta"]["holdout_before"] = hold_before
             refit["meta"]["evaluator"] = (
                 "log transmissibilities" if ev_final is ev_spectral else "time histories"
             )
-
-            def rebuild():
-                nonlocal model_r, locations, markers, sys_r
-                model_r = build_current()
-                locations, markers, sys_r = assembled(model_r)
-                _set_offsets(evaluators, sys_r)
-                return compare(sys_r, gains_r)
-
             adopted = False
             if refit["rss_after"] < refit["rss_before"]:
                 for r, p_new in zip(refit["members"], refit["values"], strict=True):
@@ -1261,6 +1306,15 @@ def diagnose_rig(
                 else:
                     accepted[:] = saved
                     sims_tr, sims_ho, maps, significant = rebuild()
+            tried.append({
+                "held_at_bound": refit["meta"]["held_at_bound"],
+                "holdout_after": refit["meta"].get("holdout_after"),
+                "adopted": adopted,
+            })
+            if adopted or hold or not any(np.any(r.get("at_bound", False)) for r in refit["members"]):
+                break  # adopted, or held already, or nothing to hold
+        if refit is not None:
+            refit["meta"]["attempts"] = tried
             refit["meta"]["adopted"] = adopted
             say(
                 "final joint refit of "

@@ -43,7 +43,10 @@ def _build(bodies):
 def test_the_final_refit_corrects_a_finding_and_flags_one_the_data_do_not_support(bodies):
     """Truth: a soft rear support only. Findings handed to the refit: that support 40 % too stiff and a
     3 kg mass at ARFHZ that the truth does not have. Fitted together, the support comes back within 5 %
-    and unflagged; the mass runs to its lower bound or becomes unidentifiable, and is flagged."""
+    and unflagged; the mass runs to its lower bound or becomes unidentifiable, and is flagged. The
+    support's damping time ended at a bound in its round: the free refit (``hold_at_bound=False``, the
+    first the diagnosis tries) fits it and corrects the stiffness; the held one keeps it (and the stiffness
+    then makes up for the wrong damping: 6.6e6 N/m, not 5e6)."""
     from exudyn_study.diagnose.rig import RigDiagnosisSettings, _Evaluator, _final_refit, _finding
     from exudyn_study.diagnose.rig_candidates import _rear_support_basis
     from exudyn_study.diagnose.rig_compare import prepare
@@ -82,12 +85,17 @@ def test_the_final_refit_corrects_a_finding_and_flags_one_the_data_do_not_suppor
         sensors=("ARFHZ",),
     )
     accepted = [rear.carried([7e6, 2e-4]), mass.carried([3.0])]
-    records = [{"h": rear, "accepted": 0}, {"h": mass, "accepted": 1}]
+    records = [{"h": rear, "accepted": 0, "at_bound": [False, True]}, {"h": mass, "accepted": 1}]
     sensor_names = tuple(model.sensors)
     recs = [prepare(train, sensor_names, "train", 12.0)]
     ev = _Evaluator(recs, sensor_names, 10.0, exact=True)
-    refit = _final_refit(records, accepted, build, ev, recs[0].channels, None, RigDiagnosisSettings(), print)
+    held = _final_refit(records, accepted, build, ev, recs[0].channels, None, RigDiagnosisSettings(), print)
+    assert held["meta"]["held_at_bound"] == ["rear_support_compliance@rear_left:damping_time_s"]
+    assert held["values"][0][1] == 2e-4 and held["rss_after"] < held["rss_before"]
+    st = RigDiagnosisSettings()
+    refit = _final_refit(records, accepted, build, ev, recs[0].channels, None, st, print, hold_at_bound=False)
     assert refit is not None and refit["rss_after"] < 0.1 * refit["rss_before"]
+    assert refit["meta"]["held_at_bound"] == [] and refit["values"][0][1] != 2e-4
     (k, _), (m,) = refit["values"]
     assert k == pytest.approx(5e6, rel=0.05)
     assert refit["flags"][0] == [] and not refit["at_bound"][0][0]
