@@ -621,7 +621,7 @@ def _fit_together(
     }
     if pinned and len(pinned) < p.size:
         say("  damping held at its start (it ran to its upper bound): "
-            + ", ".join(f"{comp.members[comp.specs[j][0]].label}" for j in pinned))
+            + ", ".join(comp.members[comp.specs[j][0]].label for j in pinned))
         sub = HeldHypothesis(comp, pinned)
         sub.start = np.clip(np.delete(p, list(pinned)), sub.lower, sub.upper)
         info_sub = {}
@@ -793,7 +793,8 @@ def _final_refit(
         ``members`` (the records), ``values``, ``std``, ``at_bound`` (per member, its parameter
         order), ``flags`` (per member, sentences), ``rss_before``/``rss_after`` (training residual at
         the rounds' values and after the refit) and ``meta`` (with ``held_at_bound``: the parameters
-        held); None with fewer than two linear findings or when they cannot be combined.
+        held, and ``holdable``: those ``hold_at_bound`` holds); None with fewer than two linear
+        findings or when they cannot be combined.
     """
     from ..physics import entry
     from .rig_hypotheses import CompositeHypothesis
@@ -822,14 +823,13 @@ def _final_refit(
     # (freed, it may wander on the noise: a rigid support's fore-aft stiffness went to 2e5 N/m, the refit
     # worsened the held-out error and was not adopted, and the vertical stiffnesses it had corrected were
     # lost; the caller tries the free refit first and this one when that is not adopted)
-    free, held = {}, []
+    free, holdable = {}, []
     for k, r in enumerate(members):
         bound = np.asarray(r.get("at_bound", np.zeros(len(r["h"].names), bool)), dtype=bool)
-        if not hold_at_bound:
-            bound = np.zeros_like(bound)
-        names = [n for n, b in zip(r["h"].names, bound, strict=True) if not b]
-        free[k] = names or list(r["h"].names)
-        held += [f"{r['h'].label}:{n}" for n in r["h"].names if n not in free[k]]
+        names = [n for n, b in zip(r["h"].names, bound, strict=True) if not b] or list(r["h"].names)
+        holdable += [f"{r['h'].label}:{n}" for n in r["h"].names if n not in names]
+        free[k] = names if hold_at_bound else list(r["h"].names)
+    held = holdable if hold_at_bound else []
     say(
         f"final joint refit of the {len(members)} linear findings: {', '.join(labels)}"
         + (f" (held at the bounds their rounds ended at: {', '.join(held)})" if held else "")
@@ -892,6 +892,7 @@ def _final_refit(
         "parameters": {n: float(v) for n, v in zip(comp.names, p, strict=True)},
         "at_bound": [n for n, b in zip(comp.names, at_bound, strict=True) if b],
         "held_at_bound": held,
+        "holdable": holdable,
         "flags": {lab: f for lab, f in zip(labels, out_flags, strict=True) if f},
     }
     if drift is not None:
@@ -1311,8 +1312,8 @@ def diagnose_rig(
                 "holdout_after": refit["meta"].get("holdout_after"),
                 "adopted": adopted,
             })
-            if adopted or hold or not any(np.any(r.get("at_bound", False)) for r in refit["members"]):
-                break  # adopted, or held already, or nothing to hold
+            if adopted or hold or not refit["meta"]["holdable"]:
+                break  # adopted, or held already, or holding would repeat this refit
         if refit is not None:
             refit["meta"]["attempts"] = tried
             refit["meta"]["adopted"] = adopted
