@@ -44,6 +44,9 @@ __all__ = ["Poles", "polymax", "pole_to_modal", "modal_to_pole", "STABILITY_DEFA
 
 #: default stability tolerances: relative frequency, relative damping, 1 - MAC of vectors
 STABILITY_DEFAULTS = {"tol_frequency": 0.01, "tol_damping": 0.05, "tol_vector": 0.02}
+#: a band is shifted in the z-domain model so that it starts at this fraction of its width above
+#: 0 Hz (see :func:`polymax`); bands starting lower are fitted as they are
+SHIFT_MARGIN = 0.1
 
 
 def pole_to_modal(pole: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
@@ -255,7 +258,12 @@ def polymax(
     Notes
     -----
     The sampling time of the z-domain model is ``1 / (2 fmax)`` so that the band
-    maps onto the upper half of the unit circle. The reduced normal matrices are
+    maps onto the upper half of the unit circle. A band that starts above a tenth of its
+    width (:data:`SHIFT_MARGIN`) is first shifted down to start there (the poles are shifted
+    back): mapped as it is, a narrow band far from 0 Hz covers a short arc on which the
+    real-coefficient basis ``z^r`` is nearly dependent at high order (30-50 Hz at order 30:
+    condition number 1.8e14), and the diagram then follows the round-off of the linear
+    algebra (the BLAS kernel and thread count). The reduced normal matrices are
     Toeplitz in the polynomial index and are built once for the highest order from
     lag sums; every order is a leading sub-block.
 
@@ -290,9 +298,15 @@ def polymax(
             raise InputError(
                 f"weights of shape {weights.shape}: expected {n_out} finite non-negative values"
             )
-    fmax = f[-1]
-    dt = 1.0 / (2.0 * fmax)
-    z = np.exp(1j * 2 * np.pi * f * dt)
+    # the z-domain model: z = exp(j 2 pi (f - shift) dt), dt = 1 / (2 (fmax - shift)). A band far
+    # from 0 Hz would map onto a short arc of the unit circle, on which the real-coefficient
+    # basis z^r is nearly dependent (30-50 Hz, order 30: condition number 1.8e14, and the poles
+    # then follow the round-off of the BLAS kernels); shifted to start at a tenth of its width,
+    # the band covers the upper half circle (condition 20). Bands that start below that are
+    # not shifted. A pole lam' of the shifted model is lam' + j 2 pi shift.
+    shift_hz = max(0.0, f[0] - SHIFT_MARGIN * (f[-1] - f[0]))
+    dt = 1.0 / (2.0 * (f[-1] - shift_hz))
+    z = np.exp(1j * 2 * np.pi * (f - shift_hz) * dt)
 
     hw = h * weights[:, None, None]
     r0, q_w, t_l = _lag_sums(hw, z, pmax)
@@ -325,9 +339,10 @@ def polymax(
         zr = np.linalg.eigvals(comp)
         zr = zr[np.isfinite(zr) & (np.abs(zr) > 0)]
         with np.errstate(invalid="ignore", divide="ignore", over="ignore"):
-            lam = np.log(zr) / dt
+            lam_model = np.log(zr) / dt
+        lam = lam_model + 2j * np.pi * shift_hz
         fr, zeta = pole_to_modal(lam)
-        keep = (lam.imag > 0) & (fr >= f[0]) & (fr <= f[-1])
+        keep = (lam_model.imag > 0) & (fr >= f[0]) & (fr <= f[-1])
         zr, lam, fr, zeta = zr[keep], lam[keep], fr[keep], zeta[keep]
         order_idx = np.argsort(fr)
         zr, lam, fr, zeta = zr[order_idx], lam[order_idx], fr[order_idx], zeta[order_idx]

@@ -24,20 +24,12 @@ def rec_path(tmp_path_factory):
 
 
 def test_identify_cli_writes_modes_and_plots(rec_path, tmp_path, capsys):
-    from threadpoolctl import threadpool_limits
-
     out = tmp_path / "modes.json"
     # the 30-50 Hz part of the Table 1 system: five modes (the full band is the
-    # acceptance test's job; this checks the command, its files and its output).
-    # Two BLAS threads, not the suite's one: with NumPy 2.4.6's OpenBLAS 0.3.31 on an AVX-512
-    # Xeon (SkylakeX or Haswell kernels) and one thread, this narrow band gives 2-3 modes with a
-    # 92 % fit error instead of 5 (session 10; Sandybridge kernels or two threads: 5). The poles
-    # of the two thread counts differ slightly (185 vs 183 in the diagram) and the selection
-    # then goes wrong: a sensitivity of the narrow-band identification still to be found
-    with threadpool_limits(2):
-        code = main(["identify", str(rec_path), "--reference", "ARFVZ", "--band", "30", "50",
-                     "--resolution", "0.25", "--max-order", "30", "--json", str(out),
-                     "--plots", str(tmp_path / "figs")])
+    # acceptance test's job; this checks the command, its files and its output)
+    code = main(["identify", str(rec_path), "--reference", "ARFVZ", "--band", "30", "50",
+                 "--resolution", "0.25", "--max-order", "30", "--json", str(out),
+                 "--plots", str(tmp_path / "figs")])
     assert code == 0
     model = read_modes_json(out)
     true_f = table1_system().frequency_hz[5:]
