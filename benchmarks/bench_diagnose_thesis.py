@@ -90,7 +90,9 @@ pseudo damage median 44 091 % -> 111 % (44-195 %), 20/21 closer to 100 %.
 
 Run: ``python3 benchmarks/bench_diagnose_thesis.py [--out DIR] [--recordings DIR] [--duration S]
 [--protocol levels|original] [--time-budget S] [--scenario thesis|thesis-dry]``
-(``--recordings`` reuses recordings written by an earlier run). Results: ``DIR/thesis_diagnosis.json`` and
+(``--recordings`` reuses recordings written by an earlier run, only if its truth file is the scenario's
+and its ``recording_code.json`` holds the hash of the current recording code, i.e. the package's sources
+but the diagnosis and the EMA; else new ones are written). Results: ``DIR/thesis_diagnosis.json`` and
 the HTML report ``DIR/report/index.html``.
 """
 
@@ -160,6 +162,36 @@ def _same_truth(truth_file: Path, sc) -> bool:
     return key(augs) == key(now)
 
 
+#: the recordings' code version is a hash of the package's sources but these (the diagnosis under test
+#: and the EMA do not write recordings)
+NOT_RECORDING_CODE = ("diagnose", "identify")
+CODE_VERSION_FILE = "recording_code.json"
+
+
+def _recording_code_hash() -> str:
+    """SHA-256 of the package sources that write the recordings (all but :data:`NOT_RECORDING_CODE`)."""
+    import hashlib
+
+    import exudyn_study
+
+    root = Path(exudyn_study.__file__).parent
+    digest = hashlib.sha256()
+    for path in sorted(root.rglob("*.py")):
+        rel = path.relative_to(root)
+        if rel.parts[0] in NOT_RECORDING_CODE:
+            continue
+        digest.update(str(rel).encode() + b"\0" + path.read_bytes() + b"\0")
+    return digest.hexdigest()
+
+
+def _same_code(rec_dir: Path, code_hash: str) -> bool:
+    """Whether the recordings in ``rec_dir`` were written by the current recording code."""
+    try:
+        return json.loads((rec_dir / CODE_VERSION_FILE).read_text())["source_sha256"] == code_hash
+    except (OSError, ValueError, KeyError):
+        return False
+
+
 def _load() -> str:
     try:
         return " ".join(f"{v:.2f}" for v in os.getloadavg())
@@ -208,7 +240,9 @@ def main(argv=None) -> int:
     )
     t0 = time.perf_counter()
     truth_file = rec_dir / truth_name(sc.name)
-    if args.recordings and truth_file.exists() and not _same_truth(truth_file, sc):
+    code_hash = _recording_code_hash()
+    stale = False
+    if truth_file.exists() and not _same_truth(truth_file, sc):
         print(
             f"the recordings in {rec_dir} are of another version of the {sc.name} scenario (its truth file "
             f"differs from scenario({sc.name!r})); writing new recordings into {out_dir}",
@@ -217,10 +251,28 @@ def main(argv=None) -> int:
         rec_dir = out_dir
         paths = [rec_dir / recording_name(sc.name, s) for s in SIGNALS]
         more = [rec_dir / recording_name(sc.name, "test", lv) for lv in LEVELS] if more else []
-    if not all(p.exists() for p in paths) or not (rec_dir / truth_name(sc.name)).exists():
+        stale = True
+    elif truth_file.exists() and not _same_code(rec_dir, code_hash):
+        # the same truth file, but other code may write other recordings of it (session 9 reused
+        # session 7's recordings and measured a diagnosis the current recordings did not give)
+        print(
+            f"the recordings in {rec_dir} were written by other code (no {CODE_VERSION_FILE} there, or "
+            f"another hash of the recording sources); writing new recordings into {out_dir}",
+            flush=True,
+        )
+        rec_dir = out_dir
+        paths = [rec_dir / recording_name(sc.name, s) for s in SIGNALS]
+        more = [rec_dir / recording_name(sc.name, "test", lv) for lv in LEVELS] if more else []
+        stale = True
+    written = False
+    if stale or not all(p.exists() for p in paths) or not (rec_dir / truth_name(sc.name)).exists():
         paths = run_virtual_test(sc, list(SIGNALS), rec_dir, duration_s=args.duration)
-    if not all(p.exists() for p in more):
+        written = True
+    if stale or not all(p.exists() for p in more):
         more = run_virtual_test(sc, ["test"], rec_dir, duration_s=args.duration, levels=LEVELS)
+        written = True
+    if written:
+        write_text_atomic(rec_dir / CODE_VERSION_FILE, json.dumps({"source_sha256": code_hash}) + "\n")
     paths = paths + more
     t_rec = time.perf_counter() - t0
     print(f"recordings: {[p.name for p in paths]} ({t_rec:.0f} s); load {_load()}", flush=True)
