@@ -241,29 +241,19 @@ def main(argv=None) -> int:
     t0 = time.perf_counter()
     truth_file = rec_dir / truth_name(sc.name)
     code_hash = _recording_code_hash()
-    stale = False
+    reason = None
     if truth_file.exists() and not _same_truth(truth_file, sc):
-        print(
-            f"the recordings in {rec_dir} are of another version of the {sc.name} scenario (its truth file "
-            f"differs from scenario({sc.name!r})); writing new recordings into {out_dir}",
-            flush=True,
-        )
-        rec_dir = out_dir
-        paths = [rec_dir / recording_name(sc.name, s) for s in SIGNALS]
-        more = [rec_dir / recording_name(sc.name, "test", lv) for lv in LEVELS] if more else []
-        stale = True
+        reason = f"are of another version of the {sc.name} scenario (its truth file differs from scenario())"
     elif truth_file.exists() and not _same_code(rec_dir, code_hash):
         # the same truth file, but other code may write other recordings of it (session 9 reused
         # session 7's recordings and measured a diagnosis the current recordings did not give)
-        print(
-            f"the recordings in {rec_dir} were written by other code (no {CODE_VERSION_FILE} there, or "
-            f"another hash of the recording sources); writing new recordings into {out_dir}",
-            flush=True,
-        )
+        reason = f"were written by other code (no {CODE_VERSION_FILE} there, or another hash of its sources)"
+    stale = reason is not None
+    if stale:
+        print(f"the recordings in {rec_dir} {reason}; writing new recordings into {out_dir}", flush=True)
         rec_dir = out_dir
         paths = [rec_dir / recording_name(sc.name, s) for s in SIGNALS]
         more = [rec_dir / recording_name(sc.name, "test", lv) for lv in LEVELS] if more else []
-        stale = True
     written = False
     if stale or not all(p.exists() for p in paths) or not (rec_dir / truth_name(sc.name)).exists():
         paths = run_virtual_test(sc, list(SIGNALS), rec_dir, duration_s=args.duration)
