@@ -31,6 +31,13 @@ drive linkage x2 on Model 1) 6/6, 35-108 s each; with session 8's, all 20 effect
 one pass on the current candidates. (Those six ran before the final refit held the parameters that
 ended at a bound in their round; a single-effect scenario has one finding and no final refit.)
 
+Session 11 (the joint fits' damping hold of e66de4f; the diagnosis code of 2c7d6fe, unchanged since):
+scenarios 4-19 (``--start 4 --n 6``, ``--start 10 --n 3``, ``--start 13 --n 4``, ``--start 17 --n 3``)
+and the 3 without an effect, load 1-2: 16/16 named, located, fitted within 15 % and held-out error
+halved, 3/3 without a finding; with session 10's scenarios 0-3 on e66de4f all 20 effects and the 3
+without one pass on the current code. Wall time per diagnosis 50-493 s (the Model-3 bushing
+scenarios 355-493 s; scenario 7's 1228 s includes a 15-minute pause of the run).
+
 Run: ``python3 benchmarks/bench_diagnose_rig.py [--n 20] [--n-none 3] [--out DIR]``
 (about 2-4 min per scenario on 2 cores). Results: ``DIR/results.json`` and a table on stdout.
 """
