@@ -298,12 +298,8 @@ def polymax(
             raise InputError(
                 f"weights of shape {weights.shape}: expected {n_out} finite non-negative values"
             )
-    # the z-domain model: z = exp(j 2 pi (f - shift) dt), dt = 1 / (2 (fmax - shift)). A band far
-    # from 0 Hz would map onto a short arc of the unit circle, on which the real-coefficient
-    # basis z^r is nearly dependent (30-50 Hz, order 30: condition number 1.8e14, and the poles
-    # then follow the round-off of the BLAS kernels); shifted to start at a tenth of its width,
-    # the band covers the upper half circle (condition 20). Bands that start below that are
-    # not shifted. A pole lam' of the shifted model is lam' + j 2 pi shift.
+    # the z-domain model: z = exp(j 2 pi (f - shift) dt), dt = 1 / (2 (fmax - shift)); a band far from
+    # 0 Hz is shifted (see Notes), a pole lam' of the shifted model is lam' + j 2 pi shift
     shift_hz = max(0.0, f[0] - SHIFT_MARGIN * (f[-1] - f[0]))
     dt = 1.0 / (2.0 * (f[-1] - shift_hz))
     z = np.exp(1j * 2 * np.pi * (f - shift_hz) * dt)
