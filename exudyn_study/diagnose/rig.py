@@ -619,7 +619,9 @@ def _fit_together(
         for j, (_, n) in enumerate(comp.specs)
         if n == "damping_time_s" and p[j] >= comp.upper[j] * (1.0 - 1e-3)
     }
-    if pinned and len(pinned) < p.size:
+    if len(pinned) == p.size:  # every parameter a damping at its bound: nothing left to refit
+        pinned = {}
+    if pinned:
         say("  damping held at its start (it ran to its upper bound): "
             + ", ".join(comp.members[comp.specs[j][0]].label for j in pinned))
         sub = HeldHypothesis(comp, pinned)
@@ -637,8 +639,6 @@ def _fit_together(
             nfev += nfev_sub
         else:
             pinned = {}
-    else:
-        pinned = {}
     held_out = dict(pinned)  # composite index -> value of the members taken out (and the pinned dampings)
     hold_errs = _holdout_errors(ev_hold, comp.system(p), gains)
     hold_err = float(np.mean(hold_errs))
