@@ -313,12 +313,16 @@ def main(argv=None) -> int:
         if a is not None and a["physics"] == "rear_support_compliance":
             c_x = truth_values.get("longitudinal_compliance_m_per_n", 0.0)  # fitted as a stiffness
             truth_values["longitudinal_stiffness_n_per_m"] = 1.0 / c_x if c_x > 0 else None
+        if a is not None and a["physics"] == "joint_stiffness":  # the candidate fits the vertical apart
+            truth_values["vertical_stiffness_n_per_m"] = truth_values["stiffness_n_per_m"] * truth_values.get(
+                "stiffness_factor_z", 1.0
+            )
         for name, v in f.parameters.items():
             true = truth_values.get(name)
             params[name] = {"fitted": v["value"], "std": v["std"], "at_bound": v["at_bound"], "truth": true}
             rel = "" if not true else f" ({100 * (v['value'] / true - 1):+.1f} %)"
             print(
-                f"    {name:36s} {v['value']:.4g} +- {v['std']:.2g}   truth "
+                f"    {name:36s} {v['value']:.4g} +- {'?' if v['std'] is None else format(v['std'], '.2g')}   truth "
                 f"{true if true is not None else '-'}{rel}{'   AT ITS BOUND' if v['at_bound'] else ''}"
             )
         # the held-out error at the finding's own sensors (the summary over 42 channels dilutes a local one)

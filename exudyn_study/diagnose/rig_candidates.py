@@ -351,43 +351,125 @@ def _component_joints(ctx: CandidateContext, sensors):
     return sorted(joints, key=lambda k: rank[k.split(".", 1)[0]])
 
 
-#: start values of the joint candidates: a stiff joint (the nominal joints are rigid)
-JOINT_START = {"stiffness_n_per_m": 1e9, "rotational_stiffness_n_m_per_rad": 1e7, "damping_time_s": 1e-4}
-#: screening grid of the joint candidates (translational N/m, rotational N m/rad, damping time s): from a
-#: rigid start the residual is flat in the stiffnesses until they come near the structure's own, so a
-#: short fit from JOINT_START alone does not reach a soft joint (a 2e6 N/m tank mount scored 0.22 and
-#: lost to joints elsewhere); the best grid point starts the fit
+#: start values of the joint candidates: a stiff joint (the nominal joints are rigid). The translational
+#: stiffness is fitted in the joint's plane (x, y) and normal to it (z, vertical) apart: a tank bracket's
+#: flange bends under vertical load long before its bolts slip in shear, so a mount may be soft
+#: vertically and stiff in its plane (the entry's stiffness_factor_z); one isotropic spring then has to
+#: soften the tank's fore-aft and lateral modes too, and a joint fit trades it for soft rear supports
+JOINT_START = {
+    "stiffness_n_per_m": 1e9,
+    "vertical_stiffness_n_per_m": 1e9,
+    "rotational_stiffness_n_m_per_rad": 1e7,
+    "damping_time_s": 1e-4,
+}
+#: screening grid of the joint candidates (in-plane N/m, vertical N/m, rotational N m/rad, damping time s):
+#: from a rigid start the residual is flat in the stiffnesses until they come near the structure's own, so
+#: a short fit from JOINT_START alone does not reach a soft joint (a 2e6 N/m tank mount scored 0.22 and
+#: lost to joints elsewhere); the best grid point starts the fit. Vertical as stiff as in the plane or
+#: softer
 JOINT_SCREEN = tuple(
-    (kt, kr, 1e-4) for kt in (1e6, 1e7, 1e8, 1e9) for kr in (1e4, 1e5, 1e6, 1e7)
+    (kt, kz, kr, 1e-4)
+    for kt in (1e6, 1e7, 1e8, 1e9)
+    for kz in (1e6, 1e7, 1e8, 1e9)
+    if kz <= kt
+    for kr in (1e4, 1e5, 1e6, 1e7)
 )
 
 
 #: a joint taken out of a joint fit: as stiff as the catalogue allows (the nominal joints are rigid)
-JOINT_RIGID = {"stiffness_n_per_m": 1e11, "rotational_stiffness_n_m_per_rad": 1e9}
+JOINT_RIGID = {
+    "stiffness_n_per_m": 1e11,
+    "vertical_stiffness_n_per_m": 1e11,
+    "rotational_stiffness_n_m_per_rad": 1e9,
+}
+
+
+def _joint_basis_axes(model):
+    """Stiffness basis of the joint candidate: in-plane (x, y), vertical (z) and rotational diagonals."""
+    return {
+        "stiffness_n_per_m": np.diag([1.0, 1.0, 0.0, 0.0, 0.0, 0.0]),
+        "vertical_stiffness_n_per_m": np.diag([0.0, 0.0, 1.0, 0.0, 0.0, 0.0]),
+        "rotational_stiffness_n_m_per_rad": np.diag([0.0] * 3 + [1.0] * 3),
+    }
+
+
+def _joint_fields(entry):
+    """(names, units, lower, upper, start) of the joint candidate (the vertical stiffness as a stiffness)."""
+    kt, kr, t = (entry.parameter(n) for n in ("stiffness_n_per_m", "rotational_stiffness_n_m_per_rad",
+                                              "damping_time_s"))
+    names = tuple(JOINT_START)
+    return (
+        names,
+        ("N/m", "N/m", "N m/rad", "s"),
+        np.array([kt.lower, kt.lower, kr.lower, t.lower]),
+        np.array([kt.upper, kt.upper, kr.upper, t.upper]),
+        np.array([JOINT_START[n] for n in names]),
+    )
+
+
+@functools.cache
+def _joint_hypothesis_class():
+    """Return the joint candidate's class (built once, on first use)."""
+    from .rig_hypotheses import ConnectorHypothesis
+
+    class JointHypothesis(ConnectorHypothesis):
+        """``joint_stiffness`` fitted with its vertical stiffness apart (the entry's stiffness_factor_z)."""
+
+        def __init__(self, physics, location, entry, *args, **kwargs):
+            factor = entry.parameter("stiffness_factor_z")
+            self._factor_bounds = (factor.lower, factor.upper)
+            super().__init__(physics, location, entry, *args, **kwargs)
+
+        def entry_values(self, values: dict) -> dict:
+            out = dict(values)
+            k_z = out.pop("vertical_stiffness_n_per_m", None)
+            if k_z is not None:
+                ratio = float(k_z) / float(out["stiffness_n_per_m"])
+                out["stiffness_factor_z"] = float(np.clip(ratio, *self._factor_bounds))
+            return out
+
+        def fit_values(self, values: dict) -> np.ndarray:
+            full = {**values, "vertical_stiffness_n_per_m": float(values["stiffness_n_per_m"])
+                    * float(values.get("stiffness_factor_z", 1.0))}
+            return np.array([float(full[n]) for n in self.names])
+
+    return JointHypothesis
+
+
+def joint_hypothesis(build, entry, key: str, **where):
+    """Return the ``joint_stiffness`` candidate at ``key`` ('component.interface')."""
+    return _joint_hypothesis_class()(
+        "joint_stiffness",
+        key,
+        entry,
+        build,
+        dict(JOINT_START),
+        basis=_joint_basis_axes,
+        fields=_joint_fields(entry),
+        **where,
+    )
 
 
 def _joint_stiffness(ctx: CandidateContext):
-    from .rig_hypotheses import ConnectorHypothesis
-
     out = []
     for key in _component_joints(ctx, ctx.located):
         comp, itf = key.split(".", 1)
         ctx.say(f"linearising the joint-stiffness hypothesis at {key}")
         out.append(
-            ConnectorHypothesis(
-                "joint_stiffness",
-                key,
-                ctx.entry("joint_stiffness"),
+            joint_hypothesis(
                 ctx.build,
-                dict(JOINT_START),
+                ctx.entry("joint_stiffness"),
+                key,
                 component=comp,
                 sensors=ctx.component_sensors(comp),
                 interface=itf,
                 screen_grid=JOINT_SCREEN,
                 # a joint may be soft in rotation and stiffer in translation than the data resolve
                 # (or the reverse), and add no damping: at least one parameter must be identifiable
-                may_vanish=("stiffness_n_per_m", "rotational_stiffness_n_m_per_rad", "damping_time_s"),
+                may_vanish=tuple(JOINT_START),
                 neutral=JOINT_RIGID,
+                # a tank's two mounts together set its bounce and pitch (soft vertically, both are needed)
+                one_per_component=False,
             )
         )
     return out
@@ -893,8 +975,12 @@ def _explain_joint_stiffness(h, v, ctx: ExplainContext) -> str:
     kt, skt = v["stiffness_n_per_m"]
     kr, skr = v["rotational_stiffness_n_m_per_rad"]
     t, _ = v["damping_time_s"]
+    vertical = ""
+    if "vertical_stiffness_n_per_m" in v:
+        kz, skz = v["vertical_stiffness_n_per_m"]
+        vertical = f" in its plane, {kz:.3g} +- {skz:.2g} N/m vertically"
     return (
-        f"The bolted joint {h.location} is not rigid: {kt:.3g} +- {skt:.2g} N/m in translation and "
+        f"The bolted joint {h.location} is not rigid: {kt:.3g} +- {skt:.2g} N/m in translation{vertical} and "
         f"{kr:.3g} +- {skr:.2g} N m/rad in rotation (damping time {t:.2g} s) move the modes that load "
         f"it ({ctx.shifts or 'small shifts'}); the {h.component} sensors ({ctx.where}) see it."
     )

@@ -110,6 +110,13 @@ class Hypothesis:
     #: component trade off against each other); False: each of its locations may join (the frame's two
     #: rear supports, which a symmetric structure needs together)
     one_per_component: bool = True
+    #: prior start values (the candidate's start before screening moves ``start``): a joint fit's second
+    #: start (RigDiagnosisSettings.composite_prior_start)
+    prior: dict = field(default_factory=dict)
+
+    def __post_init__(self):
+        if not self.prior:
+            self.prior = {n: float(v) for n, v in zip(self.names, np.atleast_1d(self.start), strict=False)}
 
     def system(self, p) -> LinearSystem:  # pragma: no cover - abstract
         """Return the candidate's system at parameters ``p`` (a LinearSystem or NonlinearSystem)."""

@@ -207,6 +207,11 @@ CONNECTORS = {
     ),
     # the diagnosis's candidate: vertical and fore-aft springs, the fore-aft one fitted as a stiffness and
     # carried as the entry's compliance
+    # the diagnosis's joint candidate: the vertical stiffness apart, carried as the entry's
+    # stiffness_factor_z (a tank mount soft vertically, stiff in its plane)
+    "joint_stiffness:axes": ("tank_right.tank_right_front", None, {
+        "stiffness_n_per_m": 1.6e8, "vertical_stiffness_n_per_m": 2e7,
+        "rotational_stiffness_n_m_per_rad": 2e5, "damping_time_s": 2e-4}),
     "rear_support_compliance:xz": ("rear_left", None, {
         "vertical_stiffness_n_per_m": 6e6, "longitudinal_stiffness_n_per_m": 8e7, "damping_time_s": 1.5e-3}),
 }
@@ -249,6 +254,12 @@ def test_connector_candidate_equals_the_model_with_the_entry_applied(model3, phy
         # the stiff end is the nominal rigid support
         assert h.entry_values({**values, "longitudinal_stiffness_n_per_m": 1e11})[
             "longitudinal_compliance_m_per_n"] == 0.0
+    elif physics.endswith(":axes"):
+        physics = "joint_stiffness"
+        h = rig_candidates.joint_hypothesis(model3, entry(physics), key)
+        carried = h.entry_values(values)
+        assert carried["stiffness_factor_z"] == pytest.approx(2e7 / 1.6e8)
+        np.testing.assert_allclose(h.fit_values(carried), [values[n] for n in h.names])  # the inverse
     else:
         h = ConnectorHypothesis(physics, key, entry(physics), model3, start, **basis)
         carried = values

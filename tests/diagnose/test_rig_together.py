@@ -166,10 +166,10 @@ def test_a_registered_explain_callable_writes_the_finding_text():
     assert RIG_CANDIDATES["added_mass"].explain is not None
 
 
-def test_a_joint_fit_keeps_the_member_that_pays_and_drops_the_one_that_does_not(model3):
-    """The truth has one soft tank mount (left front); a joint fit of it with a joint that is rigid in the
-    truth (right front): taken out with the other refitted, the true mount costs most of the held-out
-    error, the rigid one nothing, so the first is kept and the second rejected ('does not pay')."""
+def _joint_fit_case(model3):
+    """One soft tank mount (left front) in the truth; the joint-stiffness candidates of both front mounts
+    (started at 1e6 N/m) with the evaluators of a joint fit: (truth, hyps, fit, hold0); ``fit(hyps,
+    settings, say)`` runs the joint fit and returns (kept fits, meta)."""
     from rig_fixtures import MODEL3_SENSORS, mini_model3_bodies
 
     from exudyn_study.diagnose import rig
@@ -214,27 +214,41 @@ def test_a_joint_fit_keeps_the_member_that_pays_and_drops_the_one_that_does_not(
         )
         for key in JOINTS
     ]
-    st = rig.RigDiagnosisSettings()
     r0 = ev_spectral.residual_vector(lin0)
     hold0 = float(np.mean([summary_error(e) for e in ev_hold.errors(ev_hold.simulate_exact(lin0))]))
-    meta = {"candidates": []}
-    ok = rig._fit_together(
-        hyps,
-        [0.5, 0.4],
-        model3,
-        ev_spectral,
-        ev_train,
-        rig._Evaluator([hold], names, pad),  # the members are judged on the convolution
-        lin0,
-        train.channels,
-        [train],
-        None,
-        float(r0 @ r0),
-        st,
-        lambda text: None,
-        meta,
-        0,
-    )
+
+    def fit(hyps, st, say):
+        meta = {"candidates": []}
+        ok = rig._fit_together(
+            hyps,
+            [0.5, 0.4],
+            model3,
+            ev_spectral,
+            ev_train,
+            rig._Evaluator([hold], names, pad),  # the members are judged on the convolution
+            lin0,
+            train.channels,
+            [train],
+            None,
+            float(r0 @ r0),
+            st,
+            say,
+            meta,
+            0,
+        )
+        return ok, meta
+
+    return truth, hyps, fit, hold0
+
+
+def test_a_joint_fit_keeps_the_member_that_pays_and_drops_the_one_that_does_not(model3):
+    """The truth has one soft tank mount (left front); a joint fit of it with a joint that is rigid in the
+    truth (right front): taken out with the other refitted, the true mount costs most of the held-out
+    error, the rigid one nothing, so the first is kept and the second rejected ('does not pay')."""
+    from exudyn_study.diagnose import rig
+
+    truth, hyps, fit, hold0 = _joint_fit_case(model3)
+    ok, meta = fit(hyps, rig.RigDiagnosisSettings(), lambda text: None)
     verdict = {c["location"]: c for c in meta["candidates"]}
     assert verdict[JOINTS[0]]["member"]["pays"], verdict
     assert verdict[JOINTS[0]]["member"]["holdout_gain"] > 0.3
@@ -243,6 +257,32 @@ def test_a_joint_fit_keeps_the_member_that_pays_and_drops_the_one_that_does_not(
     assert [f["h"].location for f in ok] == [JOINTS[0]]
     assert ok[0]["holdout_error"] < 0.5 * hold0
     assert ok[0]["p"][0] == pytest.approx(truth["stiffness_n_per_m"], rel=0.3)
+
+
+def test_a_joint_fit_stuck_at_the_screening_optimum_is_restarted_at_the_prior(model3):
+    """The best-screened member's screening optimum is a rigid mount (1e9 N/m, where the residual is flat
+    in its stiffness: a fit started there stays); its prior start is 1e6 N/m. With the second start the
+    soft mount is found (the lower training residual wins); without it the joint fit stays rigid and
+    nothing is kept."""
+    from exudyn_study.diagnose import rig
+
+    truth, hyps, fit, hold0 = _joint_fit_case(model3)
+    rigid = np.array([1e9, 1e7, 1e-4])
+    results = {}
+    for second in (False, True):
+        st = rig.RigDiagnosisSettings()
+        st.composite_prior_start = second
+        for h in hyps:
+            h.start = rigid.copy()  # the screening optimum; h.prior keeps the candidate's start (1e6 N/m)
+        said = []
+        results[second] = fit(hyps, st, said.append)[0], said
+    ok, said = results[True]
+    assert any(t.strip().startswith("second start (joint_stiffness at its prior start)") for t in said), said
+    assert [f["h"].location for f in ok] == [JOINTS[0]]
+    assert ok[0]["p"][0] == pytest.approx(truth["stiffness_n_per_m"], rel=0.3)
+    assert ok[0]["holdout_error"] < 0.5 * hold0
+    stuck, _ = results[False]
+    assert not any(f["h"].location == JOINTS[0] and f["p"][0] < 1e7 for f in stuck)
 
 
 def test_the_pad_hardening_is_fitted_on_the_level_dependent_share_of_the_training_data():
