@@ -38,6 +38,13 @@ halved, 3/3 without a finding; with session 10's scenarios 0-3 on e66de4f all 20
 without one pass on the current code. Wall time per diagnosis 50-493 s (the Model-3 bushing
 scenarios 355-493 s; scenario 7's 1228 s includes a 15-minute pause of the run).
 
+Session 12 (c7662bf: joint candidates with the vertical stiffness apart, both mounts of a tank in one
+joint fit, the joint fit's second start at the best-screened physics' prior): the Model-3 scenarios 4-6
+and 13-16 (``--start 4 --n 3``, ``--start 13 --n 4``; bushing stiffening x3, added mass x2, drive
+linkage x2), load 2-3: 7/7 named, located, fitted within 15 % and held-out error halved; the bushing
+scenarios 308, 377 and 309 s (session 11: 493, 374, 355 s). The other scenarios were not re-run on
+that code (Model 1: no joint candidates; the second start acts only in a joint fit).
+
 Run: ``python3 benchmarks/bench_diagnose_rig.py [--n 20] [--n-none 3] [--out DIR]``
 (about 2-4 min per scenario on 2 cores). Results: ``DIR/results.json`` and a table on stdout.
 """
