@@ -106,11 +106,11 @@ Session 13 (fresh recordings of the shipped truth, written by 14fec26's code; lo
 start 0.1223 against 0.1899, 9 members kept, held-out 4.47 -> 0.596; the pad (-> 0.322), the right
 bracket's joint (-> 0.164), the final joint refit of 11 findings (free not adopted; with the parameters
 at their rounds' bounds held adopted: held-out 0.164 -> 0.094), the cubic (3.59e12 N/m^3, truth 3e12:
-+19.5 %; 71 % of the level-dependent share at the held-out level): 12 findings, all in the truth, held-
-out 4.91/4.03 -> 0.096/0.093, pseudo damage median 44 091 % -> 91 % (64-107 %), 20/21 closer to 100 %;
-4473 s (rounds 1-3 20 min, the refits most of the rest). Trials on the per-axis truth (branch ``axis``;
-its recordings' code hash equals that branch's), not adopted: refitting the findings together and
-screening again when no candidate explains enough left the pad at 15 % (2624 s, held-out 0.51/0.47 as
++19.5 %; 71 % of the level-dependent share at the held-out level): 12 findings, all in the truth,
+held-out 4.91/4.03 -> 0.096/0.093, pseudo damage median 44 091 % -> 91 % (64-107 %), 20/21 closer to 100
+%; 4473 s (rounds 1-3 20 min, the refits most of the rest). Trials on the per-axis truth (branch
+``axis``; its recordings' code hash equals that branch's), not adopted: refitting the findings together
+and screening again when no candidate explains enough left the pad at 15 % (2624 s, held-out 0.51/0.47 as
 before); a third start of the joint fit (every member at its prior) on composites rebuilt at each start
 reached 0.181 in round 1 (rear supports 1.76e7/2.15e7 N/m, the right tank's mounts 2.0e7/3.08e7 N/m
 vertically, the linkage 1.21e7 N/m and 21.6 kg: near the truth) but dropped both waters (they did not
