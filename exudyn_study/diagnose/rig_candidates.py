@@ -733,6 +733,18 @@ def _rear_support_hypothesis_class():
                 out["longitudinal_compliance_m_per_n"] = 0.0 if rigid else 1.0 / float(k_x)
             return out
 
+        def linearisation_values(self, values: dict, free) -> dict:
+            """Return ``values`` with a fitted longitudinal stiffness carried as rigid at the start's spring.
+
+            From :data:`REAR_SUPPORT_RIGID_ABOVE` on the entry has no longitudinal spring, so a joint
+            fit's composite linearised there would not move with it.
+            """
+            out = super().linearisation_values(values, free)
+            name = "longitudinal_stiffness_n_per_m"
+            if name in free and float(out[name]) >= REAR_SUPPORT_RIGID_ABOVE:
+                out[name] = REAR_SUPPORT_START[name]
+            return out
+
         def fit_values(self, values: dict) -> np.ndarray:
             c_x = float(values.get("longitudinal_compliance_m_per_n", 0.0))
             full = {**values, "longitudinal_stiffness_n_per_m": 1.0 / c_x if c_x > 0

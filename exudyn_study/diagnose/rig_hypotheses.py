@@ -137,6 +137,16 @@ class Hypothesis:
         """Return the catalogue entry's parameter values from the fitted ones (default: the same names)."""
         return dict(values)
 
+    def linearisation_values(self, values: dict, free) -> dict:
+        """Return where a joint fit's composite may linearise this member instead of at ``values``.
+
+        The composite is exact (affine, or bilinear in a connector's damping) only where the
+        member's model is that same affine function on both sides of its linearisation point;
+        a member whose entry switches there (a damping time of zero, a support carried as rigid)
+        moves the point (``free``: the names the composite fits; held ones stay). Default: ``values``.
+        """
+        return dict(values)
+
     def fit_values(self, values: dict) -> np.ndarray:
         """Return the fitted parameter vector from entry values (the inverse of :meth:`entry_values`)."""
         return np.array([float(values[n]) for n in self.names])
@@ -546,6 +556,20 @@ class ConnectorHypothesis(Hypothesis):
             self.d_c.append(rl.derivative(spring, "damping", zero, (c * unit[n]).tolist(), c)[1])
         self.stiff_index = [self.names.index(n) for n in self.stiff_names]
 
+    #: damping time (s) at which a joint fit's composite linearises a member whose damping time it fits:
+    #: its damping ``t sum_i k_i D_i`` is bilinear, which the composite takes exactly from a positive
+    #: damping time only (at zero the stiffness steps carry no damping; at a tiny one the numerically
+    #: differentiated damping is noise that the composite scales by ``t / t0``)
+    LINEARISATION_DAMPING_TIME_S = 1e-3
+
+    def linearisation_values(self, values: dict, free) -> dict:
+        """Return ``values`` with a fitted damping time at :attr:`LINEARISATION_DAMPING_TIME_S`."""
+        out = dict(values)
+        name = self.names[self.damping_index]
+        if name in free:
+            out[name] = self.LINEARISATION_DAMPING_TIME_S
+        return out
+
     def system(self, p):
         """Return the constrained system at ``p`` (stiffness parameters and damping time)."""
         p = np.asarray(p, dtype=float)
@@ -633,7 +657,10 @@ class CompositeHypothesis(Hypothesis):
     matrices is taken by one more build with that parameter stepped (the entries are affine
     in their free parameters, the others held; a connector's damping ``t diag(k)`` is
     bilinear in its damping time and stiffnesses and taken exactly, see :meth:`system`).
-    ``free`` names each member's fitted parameters (default all).
+    ``free`` names each member's fitted parameters (default all). The model is linearised at the
+    starts except where a member's entry switches (:meth:`Hypothesis.linearisation_values`: a fitted
+    damping time of zero, a rear support carried as rigid), so the composite is the same wherever
+    it is built.
     """
 
     def __init__(self, members, build: Callable, free: dict | None = None):
@@ -659,6 +686,13 @@ class CompositeHypothesis(Hypothesis):
             np.clip(start, lower, upper),
         )
         self.starts = starts
+        # where the model is linearised: the starts, moved where a member's entry switches (its
+        # linearisation_values); the held parameters stay, so member_values(p0) are these
+        at = [
+            h.linearisation_values(s, {n for j, n in specs if j == i})
+            for i, (h, s) in enumerate(zip(self.members, starts, strict=True))
+        ]
+        lin_point = np.array([at[i][n] for i, n in specs])
         from ..modal import linearize
 
         def lin_at(values_per_member):
@@ -669,14 +703,14 @@ class CompositeHypothesis(Hypothesis):
             model.assemble()
             return linearize(model)
 
-        self.base = lin_at(starts)
-        self.p0 = start.copy()
+        self.base = lin_at(at)
+        self.p0 = lin_point  # where ``base`` is linearised (``start`` is where a fit starts)
         self.d = []
-        for (i, n), v0, hi in zip(specs, start, upper, strict=True):
+        for (i, n), v0, hi in zip(specs, lin_point, upper, strict=True):
             step = 0.5 * v0 if v0 > 0 else 1e-3 * hi
             if v0 + step > hi:  # stay inside the entry's bounds (it checks them)
                 step = -step
-            values = [dict(s) for s in starts]
+            values = [dict(s) for s in at]
             values[i][n] = v0 + step
             other = lin_at(values)
             if other.full_mass.shape != self.base.full_mass.shape:
@@ -701,10 +735,10 @@ class CompositeHypothesis(Hypothesis):
                 continue
             dampings = []
             for zeta, factor in ((0.0, 0.0), (h.UNIT_ZETA, 0.0), (h.UNIT_ZETA, 1.0)):
-                values = [dict(s) for s in starts]
+                values = [dict(s) for s in at]
                 values[i].update(slosh_damping_ratio=zeta, lateral_damping_factor=factor)
                 dampings.append(lin_at(values).full_damping)
-            self.slosh.append((i, h, *h.unit_dampers(*dampings, starts[i]["slosh_mass_kg"])))
+            self.slosh.append((i, h, *h.unit_dampers(*dampings, at[i]["slosh_mass_kg"])))
             for j, (owner, _) in enumerate(specs):
                 if owner == i:
                     d_m, _, d_k = self.d[j]
