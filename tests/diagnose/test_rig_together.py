@@ -334,6 +334,31 @@ def test_the_pad_hardening_is_fitted_on_the_level_dependent_share_of_the_trainin
     assert f.fit["holdout_after"] <= f.fit["holdout_before"]
 
 
+def test_a_joint_composite_is_exact_away_from_a_start_far_softer_in_plane_than_vertically(model3):
+    """A joint candidate fits its in-plane and vertical stiffness apart and carries their ratio as the
+    entry's ``stiffness_factor_z``. A joint fit's composite is affine in its members' parameters; it stays
+    exact only if no carried value is clipped: built at 1e7 N/m in-plane and 5e10 N/m vertically (ratio
+    5000) and evaluated at 1e9 / 1e8 N/m, its modes equal those of a composite built there (to 1e-8).
+    With the entry's factor bounded to 1e-3..1e3 they differed by 0.9 %."""
+    from exudyn_study.diagnose.rig_candidates import joint_hypothesis
+    from exudyn_study.diagnose.rig_hypotheses import CompositeHypothesis
+    from exudyn_study.physics import entry
+
+    h = joint_hypothesis(
+        model3, entry("joint_stiffness"), JOINTS[0], component="tank_left", interface="tank_left_front"
+    )
+    there = np.array([1e9, 1e8, 1e6, 1e-4])
+    h.start = np.array([1e7, 5e10, 1e5, 1e-4])
+    far = CompositeHypothesis([h], model3).system(there)
+    h.start = there.copy()
+    here = CompositeHypothesis([h], model3).system(there)
+    f_far, _ = _modes(far)
+    f_here, _ = _modes(here)
+    n = min(f_far.size, f_here.size, 12)
+    assert n >= 6
+    np.testing.assert_allclose(f_far[:n], f_here[:n], rtol=1e-8)
+
+
 @pytest.mark.parametrize(
     "start",
     [
