@@ -280,7 +280,9 @@ class _SpectralEvaluator:
     transmissibilities does not: each channel and frequency bin (3-60 Hz, Welch H1, weighted
     by the coherence ``g2 / (1 - g2)`` capped at 0.99) counts by its ratio. Linear systems
     only (a nonlinear system is judged by its tangent); ``residual_vector`` has the
-    :class:`_Evaluator` interface, so screening and fitting work unchanged.
+    :class:`_Evaluator` interface, so screening and fitting work unchanged. A system whose mass
+    matrix is not positive definite raises :class:`~exudyn_study.errors.SimulationError` (its FRF
+    exists, its time response diverges: a fit must not go there).
     """
 
     def __init__(self, recordings, sensor_names, nperseg: int = 4096):
@@ -299,9 +301,18 @@ class _SpectralEvaluator:
         self.n_effective = int(sum(w.size for w in self.weight))
 
     def residual_vector(self, lin, gains=None):
+        from ..errors import SimulationError
         from ..simulate import frf_linear
 
-        h = frf_linear(getattr(lin, "lin", lin), self.f)[:, 0, :]
+        lin = getattr(lin, "lin", lin)
+        try:  # an FRF exists for any mass matrix; a structure's is positive definite
+            np.linalg.cholesky(0.5 * (lin.mass + lin.mass.T))
+        except np.linalg.LinAlgError:
+            raise SimulationError(
+                "the model's mass matrix is not positive definite (a negative-mass compensation, e.g. a "
+                "slosh mass, takes off more than its body has there): it has no physical response"
+            ) from None
+        h = frf_linear(lin, self.f)[:, 0, :]
         parts = []
         for idx, log_h, w in zip(self.idx, self.log_h, self.weight, strict=True):
             hm = h[idx] if gains is None else h[idx] * gains[:, None]
