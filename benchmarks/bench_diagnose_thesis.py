@@ -368,8 +368,9 @@ def main(argv=None) -> int:
             true = truth_values.get(name)
             params[name] = {"fitted": v["value"], "std": v["std"], "at_bound": v["at_bound"], "truth": true}
             rel = "" if not true else f" ({100 * (v['value'] / true - 1):+.1f} %)"
+            std = "?" if v["std"] is None else format(v["std"], ".2g")
             print(
-                f"    {name:36s} {v['value']:.4g} +- {'?' if v['std'] is None else format(v['std'], '.2g')}   truth "
+                f"    {name:36s} {v['value']:.4g} +- {std}   truth "
                 f"{true if true is not None else '-'}{rel}{'   AT ITS BOUND' if v['at_bound'] else ''}"
             )
         # the held-out error at the finding's own sensors (the summary over 42 channels dilutes a local one)
