@@ -558,8 +558,8 @@ class ConnectorHypothesis(Hypothesis):
 
     #: damping time (s) at which a joint fit's composite linearises a member whose damping time it fits:
     #: its damping ``t sum_i k_i D_i`` is bilinear, which the composite takes exactly from a positive
-    #: damping time only (at zero the stiffness steps carry no damping; at a tiny one the numerically
-    #: differentiated damping is noise that the composite scales by ``t / t0``)
+    #: damping time only (at zero the stiffness steps carry no damping; from 1e-8 s on it was exact to
+    #: 1e-12 on the mini Model 3, so any positive value serves)
     LINEARISATION_DAMPING_TIME_S = 1e-3
 
     def linearisation_values(self, values: dict, free) -> dict:
@@ -745,13 +745,13 @@ class CompositeHypothesis(Hypothesis):
                     self.d[j] = (d_m, np.zeros_like(d_m), d_k)
 
         # members whose damping is their stiffness times a free damping time (ConnectorHypothesis):
-        # spec of the time -> specs of their stiffnesses (C is bilinear there, see system)
+        # spec of the time -> specs of their stiffnesses (C is bilinear there, see system; the time is
+        # linearised at a positive value, ConnectorHypothesis.linearisation_values)
         self.bilinear = {}
         for i, h in enumerate(self.members):
             if isinstance(h, ConnectorHypothesis) and (i, h.names[h.damping_index]) in specs:
                 j_t = specs.index((i, h.names[h.damping_index]))
-                if self.p0[j_t] > 0:
-                    self.bilinear[j_t] = [specs.index((i, n)) for n in h.stiff_names if (i, n) in specs]
+                self.bilinear[j_t] = [specs.index((i, n)) for n in h.stiff_names if (i, n) in specs]
 
     def system(self, p):
         """Return the constrained system with every member at its part of ``p``.
