@@ -25,7 +25,7 @@ from rig_fixtures import FRAME_SENSORS, MODEL3_SENSORS, mini_bodies, mini_model3
 TWO_PI = 2 * math.pi
 RATE_HZ = 1000.0
 NEW = ("joint_stiffness", "joint_friction", "bushing_stiffening", "sloshing", "modal_damping", "sensor_gain",
-       "bushing_stiffness", "rear_support_compliance")
+       "bushing_stiffness", "rear_support_compliance", "tank_wall_mode")
 
 
 @pytest.fixture(scope="module", autouse=True)
@@ -132,6 +132,8 @@ def test_bounds_and_unknown_parameters():
         entry("modal_damping").resolve(factor=0.01)
     with pytest.raises(InputError, match=r"parameter slosh_frequency_hz = 50 Hz"):
         entry("sloshing").resolve(slosh_frequency_hz=50)
+    with pytest.raises(InputError, match=r"tank_wall_mode: parameter wall_damping_ratio = 1.5 1"):
+        entry("tank_wall_mode").resolve(wall_damping_ratio=1.5)
     with pytest.raises(InputError, match=r"unknown parameter\(s\) \['k'\]"):
         entry("joint_stiffness").resolve(k=1.0)
     with pytest.raises(InputError, match=r"parameter slip_force_n = -1 N"):
@@ -147,6 +149,8 @@ def test_wrong_variant_and_unknown_locations(bodies1, bodies3):
         entry("bushing_stiffening").apply(m1)  # the mini frame has no brackets
     with pytest.raises(InputError, match=r"sloshing: no body of this model carries 'tank_left'"):
         entry("sloshing").apply(m1, "tank_left")
+    with pytest.raises(InputError, match=r"tank_wall_mode: no body of this model carries 'tank_left'"):
+        entry("tank_wall_mode").apply(m1, "tank_left")
     with pytest.raises(InputError, match=r"sensor_gain: location 'NOPE'; expected a sensor of the model, "
                                          r"one of \['ARFMZ'"):
         entry("sensor_gain").apply(m1, "NOPE")
@@ -160,6 +164,9 @@ def test_wrong_variant_and_unknown_locations(bodies1, bodies3):
     with pytest.raises(InputError, match=r"location 'tank_middle'; expected one of "
                                          r"\['tank_left', 'tank_right'\]"):
         entry("sloshing").apply(m3, "tank_middle")
+    with pytest.raises(InputError, match=r"tank_wall_mode: location 'tank_middle'; expected one of "
+                                         r"\['tank_left', 'tank_right'\]"):
+        entry("tank_wall_mode").apply(m3, "tank_middle")
     with pytest.raises(InputError, match=r"location 'bracket_right'; expected None or 'bracket_left'"):
         entry("bushing_stiffening").apply(m3, "bracket_right")
     with pytest.raises(InputError, match=r"min_frequency_hz = 50 Hz above max_frequency_hz = 10 Hz"):
@@ -593,6 +600,72 @@ def test_sloshing_adds_the_tuned_horizontal_modes_and_keeps_mass_and_vertical_re
     assert vertical.sum() >= 2
     for fz in f_u0[vertical & (f_u0 < 120.0)]:
         assert np.min(np.abs(f_u1 - fz) / fz) < 2e-3
+
+
+# --------------------------------------------------------------------------------------- tank_wall_mode
+def test_tank_wall_mode_adds_one_tuned_lateral_mode_and_keeps_mass_and_the_tanks_x_and_z(bodies3, nominal3):
+    """Tuned below the structure (5 Hz, 1 kg; the mini Model 3's lowest mode is at 8 Hz) the wall mode is the
+    wall mass's own SDOF: one new mode at the tuning with its damping ratio, moving the tank across (y). The
+    drive carries the nominal mass; modes that move the left tank along x or z keep their frequency, those
+    across rise or stay (above the tuning the tank is lighter across by the wall mass)."""
+    from exudyn_study import modal
+
+    model0, lin0 = nominal3
+    f_w, zeta_w, m_w = 5.0, 0.05, 1.0
+    model = _model3(bodies3)
+    entry("tank_wall_mode").apply(model, "tank_left", wall_frequency_hz=f_w, wall_damping_ratio=zeta_w,
+                                  wall_mass_kg=m_w)
+    lin = modal.linearize(model)
+    r0, r = lin0.drive_shape, lin.drive_shape
+    assert r @ lin.full_mass @ r == pytest.approx(r0 @ lin0.full_mass @ r0, rel=1e-9)
+    nominal = modal.system_modes(model0, lin0, max_frequency_hz=45.0)
+    modes = modal.system_modes(model, lin, max_frequency_hz=45.0)
+    assert modes.frequency_hz.size == nominal.frequency_hz.size + 1
+    low = modes.frequency_hz < 6.0
+    assert low.sum() == 1 and not np.any(nominal.frequency_hz < 6.0)
+    j = int(np.flatnonzero(low)[0])
+    assert modes.frequency_hz[j] == pytest.approx(f_w, rel=0.01)
+    assert modes.damping_ratio[j] == pytest.approx(zeta_w, rel=0.03)
+    assert modes.direction[j]["tank_left"] == "Y"
+    f1 = _undamped(lin)[0]
+    across = 0
+    for f0, d in zip(nominal.frequency_hz, nominal.direction, strict=True):
+        if d["tank_left"] in ("X", "Z"):
+            assert np.min(np.abs(f1 - f0) / f0) < 1e-4, f"{f0:.2f} Hz ({d['tank_left']}) moved"
+        else:
+            k = np.argmin(np.abs(f1 - f0))
+            assert f1[k] >= f0 * (1.0 - 1e-6)
+            across += f1[k] > f0 * (1.0 + 1e-4)
+    assert across >= 1
+
+
+def test_tank_wall_mode_tuned_to_a_lateral_mode_damps_it_and_leaves_the_others(bodies3, nominal3):
+    """Tuned to the mini Model 3's 21.9 Hz mode (frame and tanks across) the wall mode is a tuned-mass
+    damper: that mode gains damping and the wall's own heavily damped mode appears beside it; the modes that
+    move the left tank along x or z keep their frequency and damping."""
+    from exudyn_study import modal
+
+    model0, lin0 = nominal3
+    nominal = modal.system_modes(model0, lin0, max_frequency_hz=45.0)
+    lateral = [i for i, (f, d) in enumerate(zip(nominal.frequency_hz, nominal.direction, strict=True))
+               if 15.0 < f < 30.0 and d["tank_left"] == "Y"]
+    assert len(lateral) == 1
+    f_t, zeta_t = nominal.frequency_hz[lateral[0]], nominal.damping_ratio[lateral[0]]
+    model = _model3(bodies3)
+    entry("tank_wall_mode").apply(model, "tank_left", wall_frequency_hz=f_t, wall_damping_ratio=0.1,
+                                  wall_mass_kg=5.0)
+    modes = modal.system_modes(model, modal.linearize(model), max_frequency_hz=45.0)
+    near = np.abs(modes.frequency_hz - f_t) < 0.05 * f_t
+    assert near.sum() == 2  # the mode and the wall's own
+    zetas = np.sort(modes.damping_ratio[near])
+    assert zetas[0] > 1.3 * zeta_t  # the lateral mode damped (0.79 -> 1.13 % measured)
+    assert zetas[1] > 0.05  # the wall's own mode, heavily damped (9.6 % measured)
+    for f0, z0, d in zip(nominal.frequency_hz, nominal.damping_ratio, nominal.direction, strict=True):
+        if d["tank_left"] in ("X", "Z"):
+            k = np.argmin(np.abs(modes.frequency_hz - f0))
+            assert modes.frequency_hz[k] == pytest.approx(f0, rel=1e-4)
+            # (their tank's small lateral share: at most 0.7 % of their damping measured, 0.095 -> 0.096 %)
+            assert modes.damping_ratio[k] == pytest.approx(z0, rel=0.02)
 
 
 # --------------------------------------------------------------------------------------- modal_damping

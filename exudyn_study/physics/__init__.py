@@ -10,7 +10,7 @@ and the diagnosis (hypotheses) use the same catalogue; users can :func:`register
 >>> sorted(CATALOGUE)  # doctest: +NORMALIZE_WHITESPACE
 ['added_mass', 'bushing_stiffening', 'bushing_stiffness', 'drive_linkage_compliance',
  'joint_friction', 'joint_stiffness', 'modal_damping', 'rear_support_compliance', 'sensor_gain',
- 'sloshing']
+ 'sloshing', 'tank_wall_mode']
 >>> entry("added_mass").parameter("mass_kg").unit
 'kg'
 """

@@ -4,6 +4,7 @@
 - ``joint_friction``: micro-slip (Jenkins elements) in the contact plane of a Model-3 joint;
 - ``bushing_stiffening``: the left mudguard bracket's rubber stiffens with amplitude (cubic);
 - ``sloshing``: water in a fuel tank as a slosh mass on horizontal springs (Housner/Abramson);
+- ``tank_wall_mode``: a tank's water-loaded side walls breathing across it (a damped internal resonator);
 - ``modal_damping``: a flexible body's modal damping ratios scaled (in a frequency band);
 - ``sensor_gain``: a sensor's true sensitivity differs from the stated one.
 
@@ -26,8 +27,8 @@ from ..errors import InputError
 from .catalogue import Parameter, PhysicsEntry, register
 from .nonlinear import CubicStiffening, JenkinsFriction, LocalNonlinearity
 
-__all__ = ["JOINT_STIFFNESS", "JOINT_FRICTION", "BUSHING_STIFFENING", "SLOSHING", "MODAL_DAMPING",
-           "SENSOR_GAIN", "component_joints", "exudyn_mesh_nodes"]
+__all__ = ["JOINT_STIFFNESS", "JOINT_FRICTION", "BUSHING_STIFFENING", "SLOSHING", "TANK_WALL_MODE",
+           "MODAL_DAMPING", "SENSOR_GAIN", "component_joints", "exudyn_mesh_nodes"]
 
 _COMPONENTS = ("tank_left", "tank_right", "bracket_left", "bracket_right")
 _AXES = "xyz"
@@ -445,7 +446,7 @@ third-harmonic ratio grows as the square of the level; no even harmonics.
 _TANKS = ("tank_left", "tank_right")
 
 
-def _tank_body(model, tank: str) -> tuple[str, np.ndarray]:
+def _tank_body(model, tank: str, entry_name: str = "sloshing") -> tuple[str, np.ndarray]:
     """(body carrying the tank, the tank's mesh nodes): its shell region if it has one, else the component."""
     for name, handle in model.bodies.items():
         body = handle.body
@@ -454,23 +455,38 @@ def _tank_body(model, tank: str) -> tuple[str, np.ndarray]:
         shell = f"{tank}_shell"
         nodes = body.region_nodes[shell] if shell in body.region_nodes else body.component_nodes(tank)
         return name, np.asarray(nodes, dtype=int)
-    raise InputError(f"sloshing: no body of this model carries {tank!r}; bodies {sorted(model.bodies)}")
+    raise InputError(f"{entry_name}: no body of this model carries {tank!r}; bodies {sorted(model.bodies)}")
 
 
-def _check_tank_location(model, location):
-    if location not in _TANKS:
-        raise InputError(f"sloshing: location {location!r}; expected one of {list(_TANKS)}")
-    _tank_body(model, location)
-    return location
+def _tank_location_check(entry_name: str):
+    def check(model, location):
+        if location not in _TANKS:
+            raise InputError(f"{entry_name}: location {location!r}; expected one of {list(_TANKS)}")
+        _tank_body(model, location, entry_name)
+        return location
+
+    return check
 
 
-def _add_sloshing(model, location: str, params: dict) -> dict:
+_check_tank_location = _tank_location_check("sloshing")
+
+
+def _add_tank_resonator(model, location: str, tag: str, mass_kg: float, stiffness, damping) -> dict:
+    """Add a mass inside ``location``'s tank on spring-dampers (N/m, N s/m along x, y, z); take it off again.
+
+    The mass sits at the tank's centre (a rigid marker averaging the shell's mesh nodes nearest
+    its bounding-box corners); along an axis of zero stiffness and in rotation it follows the
+    tank (a generic joint). The bodies already carry the water, so the same mass (and the
+    resonator's small rotary inertia) is taken off rigidly at that point by an
+    ``ObjectGenericODE2`` with a negative mass matrix (Exudyn rejects a negative mass on
+    ``ObjectMassPoint``/``RigidBody``): the total mass is unchanged.
+    """
     import exudyn as exu
     import exudyn.itemInterface as eii
     import exudyn.utilities as eu
 
     mbs = model.mbs
-    body_name, nodes = _tank_body(model, location)
+    body_name, nodes = _tank_body(model, location, tag.split(":")[0])
     handle = model.bodies[body_name]
     x = np.asarray(handle.body.node_positions_m)[nodes]
     # shell-like tanks: the nodes nearest the eight bounding-box corners span the tank
@@ -479,32 +495,26 @@ def _add_sloshing(model, location: str, params: dict) -> dict:
     picks = [int(nodes[np.argmin(np.linalg.norm(x - (lo + cc * (hi - lo)), axis=1))]) for cc in corners]
     picks = list(dict.fromkeys(picks))
     m_tank, centre = _node_set_marker(model, body_name, picks, rigid=True)
-    m_s = params["slosh_mass_kg"]
-    omega = 2.0 * np.pi * params["slosh_frequency_hz"]
-    k, c = m_s * omega**2, 2.0 * params["slosh_damping_ratio"] * m_s * omega
-    c_y = c * params["lateral_damping_factor"]  # across the tank (y): the baffles damp that flow differently
-    tag = f"sloshing:{location}"
-    r_g = 0.05  # m, radius of gyration of the slosh body: its rotations follow the tank (joint)
-    slosh = mbs.CreateRigidBody(name=tag, referencePosition=centre.tolist(),
-                                inertia=eu.RigidBodyInertia(m_s, np.eye(3) * m_s * r_g**2),
-                                gravity=[0.0, 0.0, 0.0])
-    slosh_node = int(mbs.GetObject(slosh)["nodeNumber"])
-    m_slosh = mbs.AddMarker(eii.MarkerBodyRigid(bodyNumber=slosh, localPosition=[0.0, 0.0, 0.0]))
+    r_g = 0.05  # m, radius of gyration of the resonator's body: its rotations follow the tank (joint)
+    mass = mbs.CreateRigidBody(name=tag, referencePosition=centre.tolist(),
+                               inertia=eu.RigidBodyInertia(mass_kg, np.eye(3) * mass_kg * r_g**2),
+                               gravity=[0.0, 0.0, 0.0])
+    mass_node = int(mbs.GetObject(mass)["nodeNumber"])
+    m_mass = mbs.AddMarker(eii.MarkerBodyRigid(bodyNumber=mass, localPosition=[0.0, 0.0, 0.0]))
     joint = mbs.AddObject(eii.ObjectJointGeneric(
-        name=f"{tag}:vertical", markerNumbers=[m_tank, m_slosh], constrainedAxes=[0, 0, 1, 1, 1, 1],
+        name=f"{tag}:vertical", markerNumbers=[m_tank, m_mass],
+        constrainedAxes=[int(k == 0.0) for k in stiffness] + [1, 1, 1],
         visualization=eii.VObjectJointGeneric(show=False)))
     spring = mbs.AddObject(eii.ObjectConnectorCartesianSpringDamper(
-        name=f"{tag}:spring", markerNumbers=[m_tank, m_slosh], stiffness=[k, k, 0.0], damping=[c, c_y, 0.0],
+        name=f"{tag}:spring", markerNumbers=[m_tank, m_mass], stiffness=[float(k) for k in stiffness],
+        damping=[float(c) for c in damping],
         visualization=eii.VObjectConnectorCartesianSpringDamper(show=False)))
-    items = {"tank_marker": m_tank, "slosh_body": int(slosh), "slosh_node": slosh_node, "joint": int(joint),
+    items = {"tank_marker": m_tank, "mass_body": int(mass), "mass_node": mass_node, "joint": int(joint),
              "spring": int(spring)}
-    # the bodies already carry the water: take the slosh mass (and its small rotary inertia) off again,
-    # rigidly at the same point. Exudyn rejects a negative ObjectMassPoint/RigidBody mass, so the
-    # compensation is an ObjectGenericODE2 with a negative mass matrix on a rigid node.
     comp_node = mbs.AddNode(eii.NodeRigidBodyRxyz(name=f"{tag}:compensation", referenceCoordinates=[
         float(v) for v in centre] + [0.0, 0.0, 0.0]))
     zero = exu.MatrixContainer(np.zeros((6, 6)))
-    neg = -np.diag([m_s] * 3 + [m_s * r_g**2] * 3)
+    neg = -np.diag([mass_kg] * 3 + [mass_kg * r_g**2] * 3)
     comp = mbs.AddObject(eii.ObjectGenericODE2(name=f"{tag}:compensation", nodeNumbers=[comp_node],
                                                massMatrix=exu.MatrixContainer(neg), stiffnessMatrix=zero,
                                                dampingMatrix=zero))
@@ -513,6 +523,16 @@ def _add_sloshing(model, location: str, params: dict) -> dict:
         name=f"{tag}:compensation_joint", markerNumbers=[m_tank, m_comp], constrainedAxes=[1] * 6,
         visualization=eii.VObjectJointGeneric(show=False)))
     items.update(compensation_node=int(comp_node), compensation=int(comp), compensation_joint=int(comp_joint))
+    return items
+
+
+def _add_sloshing(model, location: str, params: dict) -> dict:
+    m_s = params["slosh_mass_kg"]
+    omega = 2.0 * np.pi * params["slosh_frequency_hz"]
+    k, c = m_s * omega**2, 2.0 * params["slosh_damping_ratio"] * m_s * omega
+    c_y = c * params["lateral_damping_factor"]  # across the tank (y): the baffles damp that flow differently
+    items = _add_tank_resonator(model, location, f"sloshing:{location}", m_s, (k, k, 0.0), (c, c_y, 0.0))
+    items["slosh_body"], items["slosh_node"] = items["mass_body"], items["mass_node"]
     return items
 
 
@@ -560,6 +580,52 @@ dragging the water), up to 2.
     add_items=_add_sloshing,
     locations=f"a fuel tank, one of {list(_TANKS)}",
     check_location=_check_tank_location,
+))
+
+
+# --------------------------------------------------------------------------------------- tank_wall_mode
+def _add_tank_wall_mode(model, location: str, params: dict) -> dict:
+    m_w = params["wall_mass_kg"]
+    omega = 2.0 * np.pi * params["wall_frequency_hz"]
+    k, c = m_w * omega**2, 2.0 * params["wall_damping_ratio"] * m_w * omega
+    tag = f"tank_wall_mode:{location}"
+    return _add_tank_resonator(model, location, tag, m_w, (0.0, k, 0.0), (0.0, c, 0.0))
+
+
+TANK_WALL_MODE = register(PhysicsEntry(
+    name="tank_wall_mode",
+    doc="""The water-loaded side walls of a fuel tank breathe across the tank (a damped internal resonator).
+
+Physics: the nominal models make the tank a shell whose water is smeared over it, so the walls
+and the water move with the tank. A large tank's flat side walls (the long sides, normal to y)
+are flexible; full of water they have a low breathing mode in which the walls bend and the
+water between them is pushed to and fro, the water's mass on the walls' bending stiffness. A
+lateral motion of the tank drives it (the walls lag the tank's frame and its straps), and it
+dissipates strongly (the wall material's loss and the water's flow past the baffles and the
+straps' liners). Its equivalent model is one mass ``wall_mass_kg`` (the walls and the water
+they move) on a spring-damper across the tank (y), tuned to ``wall_frequency_hz`` with the
+damping ratio ``wall_damping_ratio``; along x, z and in rotation the mass follows the tank. It
+sits at the tank's centre (as the ``sloshing`` mass does) and the same mass is taken off the
+tank there (it is already in the tank's smeared water): the total mass is unchanged.
+
+Signature: a new heavily damped mode at about ``wall_frequency_hz`` (above ``~10 %``
+damping it hardly shows as a peak) that acts as a tuned-mass damper on the modes that move the
+tank across (y) near that frequency: they gain damping, most those closest to the tuning and
+with the tank's largest lateral motion, and they shift (below the tuning down, above it up);
+modes far below it see the mass as moving with the tank (nothing changes), modes far above it
+see the tank lighter by ``wall_mass_kg`` across and a damper ``2 zeta m (2 pi f_w)`` between the
+tank and the nearly still walls. The tank's fore-aft (x) and vertical (z) motion and every mode
+that does not move the tank across are unchanged.
+""",
+    parameters=(
+        Parameter("wall_frequency_hz", "Hz", 5.0, 60.0, 20.0,
+                  "breathing frequency of the water-loaded walls"),
+        Parameter("wall_damping_ratio", "1", 0.0, 1.0, 0.1, "damping ratio of the wall mode"),
+        Parameter("wall_mass_kg", "kg", 0.1, 100.0, 10.0, "mass of the walls and the water they move"),
+    ),
+    add_items=_add_tank_wall_mode,
+    locations=f"a fuel tank, one of {list(_TANKS)}",
+    check_location=_tank_location_check("tank_wall_mode"),
 ))
 
 

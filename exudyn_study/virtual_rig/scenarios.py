@@ -220,6 +220,14 @@ _SINGLE = (
         "60 kg of the right tank's water sloshes at 2.5 Hz.",
     ),
     (
+        "tank_wall_mode",
+        "tank_right",
+        {"wall_frequency_hz": 17.0, "wall_damping_ratio": 0.15, "wall_mass_kg": 15.0},
+        1,
+        "The right tank's water-loaded side walls breathe across it at 17 Hz (15 kg, 15 % damped): a "
+        "tuned-mass damper on the modes that move the tank sideways near 17 Hz.",
+    ),
+    (
         "bushing_stiffening",
         "bracket_left",
         {"cubic_stiffness_n_per_m3": 5e13},

@@ -382,10 +382,12 @@ THESIS_FIT = {
 def thesis_augmentations(parameters: dict = THESIS_PARAMETERS) -> tuple[Augment, ...]:
     """Return the catalogue entries of the thesis truth (``parameters``: :data:`THESIS_PARAMETERS` layout)."""
     aug = []
-    for key, (kt, kr, t, *factor) in parameters["joints"].items():
+    for key, (kt, kr, t, *rest) in parameters["joints"].items():
         values = {"stiffness_n_per_m": kt, "rotational_stiffness_n_m_per_rad": kr, "damping_time_s": t}
-        if factor:
-            values["rotational_damping_factor"] = factor[0]
+        if rest:
+            values["rotational_damping_factor"] = rest[0]
+        if len(rest) > 1:  # per-axis translational factors, e.g. {'stiffness_factor_z': 0.12}
+            values.update(rest[1])
         aug.append(Augment("joint_stiffness", key, values))
     aug.append(Augment("drive_linkage_compliance", None, dict(parameters["drive_linkage"])))
     for side, (kz, cx, t) in parameters.get("rear_support", {}).items():
