@@ -136,7 +136,7 @@ whose time response diverged, and every member was rejected. A third start (ever
 on the exact composite reached 0.782 there and then nothing paid for itself: not adopted.
 
 Run: ``python3 benchmarks/bench_diagnose_thesis.py [--out DIR] [--recordings DIR] [--duration S]
-[--protocol levels|original] [--time-budget S] [--scenario thesis|thesis-dry]``
+[--protocol levels|original] [--time-budget S] [--scenario thesis|thesis-dry|thesis-table1]``
 (``--recordings`` reuses recordings written by an earlier run, only if its truth file is the scenario's
 and its ``recording_code.json`` holds the hash of the current recording code, i.e. the package's sources
 but the diagnosis and the EMA; else new ones are written). Results: ``DIR/thesis_diagnosis.json`` and
@@ -272,9 +272,10 @@ def main(argv=None) -> int:
     )
     ap.add_argument(
         "--scenario",
-        choices=("thesis", "thesis-dry"),
+        choices=("thesis", "thesis-dry", "thesis-table1"),
         default="thesis",
-        help="the truth: the thesis scenario or the session-6 truth without the water (thesis-dry)",
+        help="the truth: the thesis scenario, the session-6 truth without the water (thesis-dry) or the "
+        "truth tuned to Table 1 (thesis-table1: the diagnosis has no candidate for its wall mode)",
     )
     args = ap.parse_args(argv)
     out_dir = Path(args.out or tempfile.mkdtemp(prefix="bench_diagnose_thesis_"))

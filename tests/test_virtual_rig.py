@@ -29,8 +29,11 @@ def test_registry_has_none_thesis_and_one_scenario_per_effect():
     assert len(THESIS_TABLE1) == 10
     for name, sc in SCENARIOS.items():
         assert sc.description
-        if name not in ("none", "thesis", "thesis-dry"):
+        if name not in ("none", "thesis", "thesis-dry", "thesis-table1"):
             assert [a.physics for a in sc.augmentations] == [name]
+    from exudyn_study.physics import CATALOGUE
+
+    assert set(CATALOGUE) <= set(SCENARIOS)  # a single-effect scenario for every catalogue entry
 
 
 def test_recording_and_truth_are_separate_and_the_recording_names_no_physics(bodies, tmp_path):

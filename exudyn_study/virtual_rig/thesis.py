@@ -104,6 +104,14 @@ references move together) seed 0 gives 3/10 (a 40.0 Hz pole takes the 41.37 row,
 bounce at 43.9 Hz with 1.1 %) and seed 1 7/10. Virtual test 140-200 s and identification
 40-75 s of wall time with two runs side by side on the shared 2-core machine.
 
+The ``thesis-table1`` scenario (:data:`THESIS_TABLE1_PARAMETERS`, session 15) is the truth whose EMA
+gives Table 1: ten of ten rows within 10 % on seeds 0, 1 and 3, nine on seed 2 (the frame yaw's damping,
+which scatters by seed). It is the per-axis truth of ``THESIS_FIT['not_reached']`` (the right tank's mounts
+soft only vertically: the two frame modes about y) with the right tank's water-loaded side walls
+breathing across it (``tank_wall_mode``, a damped resonator at 18 Hz that damps the tanks' lateral mode at
+15.7 Hz: the 15.00 Hz row). The diagnosis does not explain it yet, so ``thesis`` stays the diagnosis's and
+the demo's truth.
+
 The session-6 truth without the water and the fore-aft compliance is the ``thesis-dry`` scenario
 (:data:`THESIS_DRY_PARAMETERS`): five and six rows within 10 % in both (seeds 0/1, each); the sway
 (0.7 % in that truth) and the frame yaw (0.2 %) could not be damped without overdamping the vertical
@@ -122,6 +130,8 @@ __all__ = [
     "THESIS_PARAMETERS",
     "THESIS_DRY_PARAMETERS",
     "THESIS_DRY_SCENARIO",
+    "THESIS_TABLE1_PARAMETERS",
+    "THESIS_TABLE1_SCENARIO",
     "THESIS_FIT",
     "EMA_REFERENCES",
     "thesis_augmentations",
@@ -351,7 +361,13 @@ THESIS_FIT = {
             "and differed by seed (the bracket's z mode, truth 1.51 %, identified 1.67 and 2.00 %; the 14.7 "
             "Hz mode, 1.11 %, 1.56 and 1.73 %; the sway 2.32 and 2.07 % for 2.04 %): three modes within 1.5 "
             "Hz (13.9, 14.7, 15.3 Hz) at 0.2 Hz resolution are not identified with damping ratios that "
-            "follow the truth's, so that truth was not adopted"
+            "follow the truth's, so that truth was not adopted. Session 15: the first selective damper found "
+            "is a damped resonator inside the right tank, tuned above this mode (the catalogue's "
+            "tank_wall_mode, the tank's water-loaded side walls breathing across it: 24 kg at 18 Hz, 23 %): "
+            "on the per-axis truth it takes this mode from 0.70 to 1.51 %, the sway from 1.22 to 1.47 %, and "
+            "leaves the left bracket's z mode, the frame bounce and the right bracket (+0.01-0.02 points). "
+            "That truth is the thesis-table1 scenario (THESIS_TABLE1_PARAMETERS: 10, 10, 9, 10 of 10 on "
+            "seeds 0-3); it is not this truth because the diagnosis does not explain it yet"
         ),
         (
             "reached with the water (session 7; the dry truth missed them): the tank sway and the second "
@@ -398,6 +414,9 @@ def thesis_augmentations(parameters: dict = THESIS_PARAMETERS) -> tuple[Augment,
         if lateral:
             values["lateral_damping_factor"] = lateral[0]
         aug.append(Augment("sloshing", tank, values))
+    for tank, (f_w, zeta_w, m_w) in parameters.get("tank_wall_mode", {}).items():
+        aug.append(Augment("tank_wall_mode", tank, {
+            "wall_frequency_hz": f_w, "wall_damping_ratio": zeta_w, "wall_mass_kg": m_w}))
     if "bushing_pad" in parameters:
         aug.append(Augment("bushing_stiffness", "bracket_left", dict(parameters["bushing_pad"])))
     shear_k3 = parameters.get("bushing_cubic_n_per_m3", 0.0)
@@ -606,4 +625,80 @@ THESIS_DRY_SCENARIO = Scenario(
     variant=3,
     damping="table6",
     augmentations=thesis_augmentations(THESIS_DRY_PARAMETERS),
+)
+
+#: the ``thesis-table1`` truth (SI; session 15): the per-axis truth of session 9 (the right tank's mounts soft
+#: only vertically, so the frame bounces with the right tank at 41.3 and 44.7 Hz: Table 1's two frame modes
+#: about y) with the right tank's water-loaded side walls breathing across it (``tank_wall_mode``: 24 kg at
+#: 18 Hz, 23 % damped, a tuned-mass damper on the tanks' lateral mode at 15.7 Hz: 0.70 -> 1.51 %, the
+#: sway 1.22 -> 1.47 %, the left bracket's z, the frame bounce and the right bracket +0.01-0.02 points; the
+#: 15.00 Hz row's damping, which no joint, support, water or body-mode damper reached without overdamping the
+#: sway or the right bracket, see THESIS_FIT['not_reached']); the water's slosh damping (0.53, lateral
+#: factor 0.357), the left rear support's damping time (2.54e-4 s) and the frame's 130-180 Hz modal damping
+#: (x1.70) refitted by least squares on the linearised modes with one reference held, at the identification's
+#: offsets measured end to end. Measured (``bench_thesis_scenario.py --scenario thesis-table1 --seed N``,
+#: one identification per reference, averaged), identified frequency / damping, rows within 10 % in both *:
+#:
+#: ====================  ==============  ==============  ==============  ==============
+#: Table-1 row (Hz / %)  seed 0          seed 1          seed 2          seed 3
+#: ====================  ==============  ==============  ==============  ==============
+#: 12.05 / 1.81          11.70 / 1.87 *  11.69 / 1.80 *  11.70 / 1.91 *  11.69 / 1.83 *
+#: 13.21 / 1.46          13.75 / 1.48 *  13.76 / 1.51 *  13.75 / 1.48 *  13.75 / 1.46 *
+#: 14.15 / 1.78          14.97 / 1.82 *  14.95 / 1.82 *  14.95 / 1.83 *  14.96 / 1.86 *
+#: 15.00 / 2.18          15.67 / 2.11 *  15.68 / 2.07 *  15.67 / 2.17 *  15.69 / 2.13 *
+#: 21.21 / 1.19          21.07 / 1.09 *  21.05 / 1.22 *  21.06 / 1.33    21.03 / 1.26 *
+#: 32.69 / 5.47          32.76 / 5.44 *  32.77 / 5.57 *  32.77 / 5.50 *  32.76 / 5.49 *
+#: 36.64 / 3.46          36.77 / 3.33 *  36.80 / 3.33 *  36.79 / 3.38 *  36.79 / 3.36 *
+#: 41.37 / 1.19          41.28 / 1.27 *  41.28 / 1.26 *  41.28 / 1.27 *  41.28 / 1.30 *
+#: 43.84 / 2.09          44.61 / 1.94 *  44.60 / 1.94 *  44.61 / 1.94 *  44.60 / 1.98 *
+#: 47.60 / 0.53          47.44 / 0.58 *  47.43 / 0.56 *  47.44 / 0.56 *  47.42 / 0.54 *
+#: both within 10 %      10/10           10/10           9/10            10/10
+#: ====================  ==============  ==============  ==============  ==============
+#:
+#: The frame yaw's identified damping scatters by seed (1.09-1.33 % for a truth of 1.22 %), so that row passes
+#: or fails by seed, as the sway's did on ``thesis``. The identified mode at 15.7 Hz has an MPC of 0.34-0.43
+#: (a complex mode: the wall's heavily damped mode at 18.5 Hz, 22 %, is its neighbour; the identification
+#: does not report that one). Tuned on the lateral mode itself (15.6 Hz, 17 %, 9.5 kg) the identification
+#: lost the lateral mode (merged with the bracket's z mode into one at 15.0 Hz: 6/10 on seed 0); a second,
+#: overdamped slosh mass acting along the tank too (16.7 Hz) gave 9, 10, 10, 7 of 10 (seed 3 lost the mode,
+#: MPC 0.03-0.13). The diagnosis does not explain this truth yet (it has no candidate for the wall mode, and
+#: on the per-axis truth its round 1 lands in another basin: the left tank's mounts soft and 200+ kg of
+#: sloshing water), which is why ``thesis`` is still the diagnosis's truth and the demo's
+THESIS_TABLE1_PARAMETERS = {
+    **THESIS_PARAMETERS,
+    "joints": {
+        "tank_left.tank_left_front": (3.97e9, 5.2e5, 0.0),
+        "tank_left.tank_left_rear": (7.1e9, 6.36e5, 7e-7, 100.0),
+        # soft vertically only (stiffness_factor_z): 2e7 N/m at the front, 3e7 N/m at the rear
+        "tank_right.tank_right_front": (1.64e8, 1.65e5, 1.05e-4, 39.5, {"stiffness_factor_z": 2e7 / 1.64e8}),
+        "tank_right.tank_right_rear": (1.41e8, 1.16e6, 0.0, 1.0, {"stiffness_factor_z": 3e7 / 1.41e8}),
+        "bracket_right.bracket_right": (9.75e7, 2.87e7, 0.0),
+    },
+    "rear_support": {"rear_left": (2.0e7, 1e-8, 2.54e-4), "rear_right": (2.0e7, 1e-8, 0.0)},
+    "sloshing": {"tank_left": (2.5, 0.53, 70.0, 0.357),
+                 "tank_right": (2.5, 0.53, 70.0, 0.357)},
+    # (wall frequency Hz, damping ratio, mass kg)
+    "tank_wall_mode": {"tank_right": (18.0, 0.23, 24.0)},
+    "modal_damping": (
+        ("bracket_left", 0.194, 130.0, 140.0),
+        ("bracket_left", 0.1, 168.0, 172.0),
+        ("bracket_left", 2.06, 180.0, 190.0),
+        ("bracket_left", 0.898, 195.0, 205.0),
+        ("bracket_right", 0.1, 0.0, 1e5),
+        ("frame", 0.1, 0.0, 129.0),
+        ("frame", 1.70, 130.0, 180.0),
+        ("frame", 0.1, 181.0, 1e5),
+    ),
+}
+
+THESIS_TABLE1_SCENARIO = Scenario(
+    name="thesis-table1",
+    description="The thesis truth tuned to Table 1: as 'thesis' but with the right tank's mounts soft "
+    "only vertically (the frame bouncing with the right tank: Table 1's two frame modes about y at 41 and 44 "
+    "Hz) and the right tank's water-loaded side walls breathing across it (a damped resonator at 18 Hz that "
+    "damps the tanks' lateral mode at 15.7 Hz: Table 1's 15.00 Hz row). Its EMA gives Table 1 within 10 % "
+    "(see THESIS_TABLE1_PARAMETERS); the diagnosis does not explain it yet ('thesis' is its truth).",
+    variant=3,
+    damping="table6",
+    augmentations=thesis_augmentations(THESIS_TABLE1_PARAMETERS),
 )
