@@ -17,11 +17,12 @@ apply). The registration declares
   plain-language explanation (``values``: parameter name -> (fitted value, std)); without
   it the report lists the fitted values.
 
-The built-ins (``added_mass``, ``modal_damping``, ``sensor_gain``,
+Every catalogue entry but ``tank_wall_mode`` (a damped resonator inside a tank, in the ``thesis-table1``
+truth: the diagnosis cannot name it yet) has a candidate. The built-ins (``added_mass``, ``modal_damping``,
+``sensor_gain``,
 ``drive_linkage_compliance``, ``joint_stiffness``, ``bushing_stiffness``,
 ``rear_support_compliance``, ``sloshing``, ``bushing_stiffening``, ``joint_friction``) are registered here
-through
-:func:`register_rig_candidate`, the same call a user makes for an own catalogue entry
+through :func:`register_rig_candidate`, the same call a user makes for an own catalogue entry
 (register the entry itself with :func:`exudyn_study.physics.register` first)::
 
     from exudyn_study.diagnose import register_rig_candidate

@@ -616,6 +616,9 @@ modes far below it see the mass as moving with the tank (nothing changes), modes
 see the tank lighter by ``wall_mass_kg`` across and a damper ``2 zeta m (2 pi f_w)`` between the
 tank and the nearly still walls. The tank's fore-aft (x) and vertical (z) motion and every mode
 that does not move the tank across are unchanged.
+
+The diagnosis has no candidate for this entry yet (the ``thesis-table1`` truth uses it; ``thesis`` does
+not).
 """,
     parameters=(
         Parameter("wall_frequency_hz", "Hz", 5.0, 60.0, 20.0,

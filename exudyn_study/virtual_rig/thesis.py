@@ -661,9 +661,12 @@ THESIS_DRY_SCENARIO = Scenario(
 #: does not report that one). Tuned on the lateral mode itself (15.6 Hz, 17 %, 9.5 kg) the identification
 #: lost the lateral mode (merged with the bracket's z mode into one at 15.0 Hz: 6/10 on seed 0); a second,
 #: overdamped slosh mass acting along the tank too (16.7 Hz) gave 9, 10, 10, 7 of 10 (seed 3 lost the mode,
-#: MPC 0.03-0.13). The diagnosis does not explain this truth yet (it has no candidate for the wall mode, and
-#: on the per-axis truth its round 1 lands in another basin: the left tank's mounts soft and 200+ kg of
-#: sloshing water), which is why ``thesis`` is still the diagnosis's truth and the demo's
+#: MPC 0.03-0.13). The diagnosis does not explain this truth yet: it has no candidate for the wall mode, and
+#: its round 1 lands in another basin (``bench_diagnose_thesis.py --scenario thesis-table1``, fresh
+#: recordings, 910 s at load 2: the left tank's front mount at 3.3e5 N/m vertically for 3.97e9, 300 and 193 kg
+#: of sloshing water for 70, the linkage's mass 102 kg for 20; held-out 4.61 -> 0.78/0.80, the linkage and
+#: the rear supports found, the pad and its cubic hardening not), so issue 8's thesis line would fail on it;
+#: that is why ``thesis`` is still the diagnosis's truth and the demo's
 THESIS_TABLE1_PARAMETERS = {
     **THESIS_PARAMETERS,
     "joints": {
