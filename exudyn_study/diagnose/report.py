@@ -130,7 +130,7 @@ def _frf_overlay(data: Mapping, path: Path) -> Path | None:
                 ax.semilogy(freq, np.abs(after[lab][si]), color="tab:blue", lw=0.9, label=after_label)
             role = "held-out" if lab in data.get("holdout", []) else "train"
             lv = levels.get(lab, np.nan)
-            ax.set_title(f"{s}, {lab} ({role}, {lv:.3g} {_unit(data)})", fontsize=8)
+            ax.set_title(f"{s}, {lab}\n({role}, {lv:.3g} {_unit(data)})", fontsize=8)
             ax.grid(True, which="both", alpha=0.3)
             if c == 0:
                 ax.set_ylabel("|T| (acc / drive acc)")
