@@ -559,19 +559,27 @@ def test_bushing_compression_hardening_gives_odd_harmonics_growing_with_the_cube
 
 
 # --------------------------------------------------------------------------------------- sloshing
+def _tank_resonator_mass_kept(bodies3, lin0, name, **params):
+    """(model, linearised system) with entry ``name`` in the left tank; checks the total mass is kept (the
+    rigid drive motion carries exactly the nominal mass: the resonator's mass is taken off the tank)."""
+    from exudyn_study import modal
+
+    model = _model3(bodies3)
+    entry(name).apply(model, "tank_left", **params)
+    lin = modal.linearize(model)
+    r0, r = lin0.drive_shape, lin.drive_shape
+    assert r @ lin.full_mass @ r == pytest.approx(r0 @ lin0.full_mass @ r0, rel=1e-9)
+    return model, lin
+
+
 def test_sloshing_adds_the_tuned_horizontal_modes_and_keeps_mass_and_vertical_response(bodies3, nominal3):
     from exudyn_study import modal
     from exudyn_study.simulate import frf_linear
 
     model0, lin0 = nominal3
     f_s, zeta_s, m_s = 3.0, 0.05, 80.0
-    model = _model3(bodies3)
-    entry("sloshing").apply(model, "tank_left", slosh_frequency_hz=f_s, slosh_damping_ratio=zeta_s,
-                            slosh_mass_kg=m_s)
-    lin = modal.linearize(model)
-    # total mass kept: the rigid drive motion carries exactly the nominal mass
-    r0, r = lin0.drive_shape, lin.drive_shape
-    assert r @ lin.full_mass @ r == pytest.approx(r0 @ lin0.full_mass @ r0, rel=1e-9)
+    model, lin = _tank_resonator_mass_kept(bodies3, lin0, "sloshing", slosh_frequency_hz=f_s,
+                                           slosh_damping_ratio=zeta_s, slosh_mass_kg=m_s)
     modes = modal.system_modes(model, lin, max_frequency_hz=6.0)
     f_u0, phi_u0 = _undamped(lin0)
     assert not np.any((f_u0 > 0.5) & (f_u0 < 6.0))
@@ -612,12 +620,8 @@ def test_tank_wall_mode_adds_one_tuned_lateral_mode_and_keeps_mass_and_the_tanks
 
     model0, lin0 = nominal3
     f_w, zeta_w, m_w = 5.0, 0.05, 1.0
-    model = _model3(bodies3)
-    entry("tank_wall_mode").apply(model, "tank_left", wall_frequency_hz=f_w, wall_damping_ratio=zeta_w,
-                                  wall_mass_kg=m_w)
-    lin = modal.linearize(model)
-    r0, r = lin0.drive_shape, lin.drive_shape
-    assert r @ lin.full_mass @ r == pytest.approx(r0 @ lin0.full_mass @ r0, rel=1e-9)
+    model, lin = _tank_resonator_mass_kept(bodies3, lin0, "tank_wall_mode", wall_frequency_hz=f_w,
+                                           wall_damping_ratio=zeta_w, wall_mass_kg=m_w)
     nominal = modal.system_modes(model0, lin0, max_frequency_hz=45.0)
     modes = modal.system_modes(model, lin, max_frequency_hz=45.0)
     assert modes.frequency_hz.size == nominal.frequency_hz.size + 1
