@@ -502,7 +502,7 @@ def _add_tank_resonator(model, location: str, tag: str, mass_kg: float, stiffnes
     mass_node = int(mbs.GetObject(mass)["nodeNumber"])
     m_mass = mbs.AddMarker(eii.MarkerBodyRigid(bodyNumber=mass, localPosition=[0.0, 0.0, 0.0]))
     joint = mbs.AddObject(eii.ObjectJointGeneric(
-        name=f"{tag}:vertical", markerNumbers=[m_tank, m_mass],
+        name=f"{tag}:follows_tank", markerNumbers=[m_tank, m_mass],
         constrainedAxes=[int(k == 0.0) for k in stiffness] + [1, 1, 1],
         visualization=eii.VObjectJointGeneric(show=False)))
     spring = mbs.AddObject(eii.ObjectConnectorCartesianSpringDamper(
