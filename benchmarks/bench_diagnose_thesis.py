@@ -136,7 +136,8 @@ whose time response diverged, and every member was rejected. A third start (ever
 on the exact composite reached 0.782 there and then nothing paid for itself: not adopted.
 
 Run: ``python3 benchmarks/bench_diagnose_thesis.py [--out DIR] [--recordings DIR] [--duration S]
-[--protocol levels|original] [--time-budget S] [--scenario thesis|thesis-dry|thesis-table1]``
+[--protocol levels|original] [--time-budget S] [--scenario thesis|thesis-dry|thesis-table1]
+[--all-prior-start]``
 (``--recordings`` reuses recordings written by an earlier run, only if its truth file is the scenario's
 and its ``recording_code.json`` holds the hash of the current recording code, i.e. the package's sources
 but the diagnosis and the EMA; else new ones are written). Results: ``DIR/thesis_diagnosis.json`` and
@@ -277,6 +278,12 @@ def main(argv=None) -> int:
         help="the truth: the thesis scenario, the session-6 truth without the water (thesis-dry) or the "
         "truth tuned to Table 1 (thesis-table1: the diagnosis has no candidate for its wall mode)",
     )
+    ap.add_argument(
+        "--all-prior-start",
+        action="store_true",
+        help="start a joint fit a third time with every member at its prior start "
+        "(RigDiagnosisSettings.composite_all_prior_start; off by default)",
+    )
     args = ap.parse_args(argv)
     out_dir = Path(args.out or tempfile.mkdtemp(prefix="bench_diagnose_thesis_"))
     out_dir.mkdir(parents=True, exist_ok=True)
@@ -326,6 +333,7 @@ def main(argv=None) -> int:
     st = RigDiagnosisSettings()
     if args.time_budget is not None:
         st.time_budget_s = float(args.time_budget)
+    st.composite_all_prior_start = args.all_prior_start
     figures: dict = {}
     d = diagnose_rig(
         sc.variant,

@@ -430,3 +430,29 @@ def test_the_spectral_fit_refuses_a_model_with_an_indefinite_mass(model3):
     assert rig._safe_residual(Fixed(heavy), ev, rec.channels, None) is None
     r = rig._safe_residual(Fixed(light), ev, rec.channels, None)
     assert r is not None and np.all(np.isfinite(r))
+
+
+def test_the_joint_fits_further_starts_put_the_best_screened_physics_then_every_member_at_its_prior():
+    """Second start: the best-screened member's physics at its prior start, the others at their screening
+    optima; third (composite_all_prior_start): every member at its prior; a start equal to an earlier one
+    is left out (and the next one takes its ordinal); values are clipped to the composite's bounds."""
+    from types import SimpleNamespace
+
+    from exudyn_study.diagnose.rig import _prior_starts
+
+    members = [SimpleNamespace(physics="rear_support_compliance", prior={"k": 5.0}),
+               SimpleNamespace(physics="joint_stiffness", prior={"c": 7.0, "d": 50.0}),
+               SimpleNamespace(physics="rear_support_compliance", prior={"k": 6.0})]
+    comp = SimpleNamespace(specs=[(0, "k"), (1, "c"), (1, "d"), (2, "k")],
+                           lower=np.zeros(4), upper=np.array([10.0, 10.0, 10.0, 10.0]))
+    start_a = np.array([1.0, 2.0, 3.0, 4.0])
+    starts = _prior_starts(comp, members, start_a, all_prior=True)
+    assert [(o, w) for o, w, _ in starts] == [("second", "rear_support_compliance at its prior start"),
+                                            ("third", "every member at its prior start")]
+    np.testing.assert_array_equal(starts[0][2], [5.0, 2.0, 3.0, 6.0])
+    np.testing.assert_array_equal(starts[1][2], [5.0, 7.0, 10.0, 6.0])  # 50 clipped to the upper bound
+    np.testing.assert_array_equal(start_a, [1.0, 2.0, 3.0, 4.0])  # not changed in place
+    assert [o for o, _, _ in _prior_starts(comp, members, start_a, all_prior=False)] == ["second"]
+    at_prior = np.array([5.0, 2.0, 3.0, 6.0])  # the top physics already at its prior: no second start
+    starts = _prior_starts(comp, members, at_prior, all_prior=True)
+    assert [(o, w) for o, w, _ in starts] == [("second", "every member at its prior start")]
