@@ -471,8 +471,10 @@ def _tank_location_check(entry_name: str):
 _check_tank_location = _tank_location_check("sloshing")
 
 
-def _add_tank_resonator(model, location: str, tag: str, mass_kg: float, stiffness, damping) -> dict:
+def _add_tank_resonator(model, entry_name: str, location: str, mass_kg: float, stiffness, damping) -> dict:
     """Add a mass inside ``location``'s tank on spring-dampers (N/m, N s/m along x, y, z); take it off again.
+
+    Its Exudyn items are named ``'{entry_name}:{location}...'``.
 
     The mass sits at the tank's centre (a rigid marker averaging the shell's mesh nodes nearest
     its bounding-box corners); along an axis of zero stiffness and in rotation it follows the
@@ -486,7 +488,8 @@ def _add_tank_resonator(model, location: str, tag: str, mass_kg: float, stiffnes
     import exudyn.utilities as eu
 
     mbs = model.mbs
-    body_name, nodes = _tank_body(model, location, tag.split(":")[0])
+    tag = f"{entry_name}:{location}"
+    body_name, nodes = _tank_body(model, location, entry_name)
     handle = model.bodies[body_name]
     x = np.asarray(handle.body.node_positions_m)[nodes]
     # shell-like tanks: the nodes nearest the eight bounding-box corners span the tank
@@ -531,7 +534,7 @@ def _add_sloshing(model, location: str, params: dict) -> dict:
     omega = 2.0 * np.pi * params["slosh_frequency_hz"]
     k, c = m_s * omega**2, 2.0 * params["slosh_damping_ratio"] * m_s * omega
     c_y = c * params["lateral_damping_factor"]  # across the tank (y): the baffles damp that flow differently
-    items = _add_tank_resonator(model, location, f"sloshing:{location}", m_s, (k, k, 0.0), (c, c_y, 0.0))
+    items = _add_tank_resonator(model, "sloshing", location, m_s, (k, k, 0.0), (c, c_y, 0.0))
     items["slosh_body"], items["slosh_node"] = items["mass_body"], items["mass_node"]
     return items
 
@@ -588,8 +591,7 @@ def _add_tank_wall_mode(model, location: str, params: dict) -> dict:
     m_w = params["wall_mass_kg"]
     omega = 2.0 * np.pi * params["wall_frequency_hz"]
     k, c = m_w * omega**2, 2.0 * params["wall_damping_ratio"] * m_w * omega
-    tag = f"tank_wall_mode:{location}"
-    return _add_tank_resonator(model, location, tag, m_w, (0.0, k, 0.0), (0.0, c, 0.0))
+    return _add_tank_resonator(model, "tank_wall_mode", location, m_w, (0.0, k, 0.0), (0.0, c, 0.0))
 
 
 TANK_WALL_MODE = register(PhysicsEntry(
