@@ -71,7 +71,8 @@ def main(argv=None) -> int:
     ap.add_argument("--out", default="/tmp/thesis_bench", help="output directory (created)")
     ap.add_argument("--scenario", default="thesis", choices=("thesis", "thesis-dry", "thesis-table1"),
                     help="the thesis truth (default), the session-6 truth without the water (thesis-dry) or "
-                    "the truth tuned to Table 1 that the diagnosis does not explain yet (thesis-table1)")
+                    "the truth tuned to Table 1 (thesis-table1; the diagnosis explains it with "
+                    "--all-prior-start)")
     ap.add_argument("--modes", action="store_true", help="also print the linearised truth's modes")
     ap.add_argument("--plots", action="store_true", help="identification figures into OUT/plots")
     ap.add_argument("--reuse", action="store_true",
