@@ -132,6 +132,7 @@ def main(argv=None) -> int:
     ap.add_argument("--duration", type=float, default=60.0, help="seconds per recording")
     ap.add_argument("--out", default=None, help="directory for results.json (default: a temporary one)")
     ap.add_argument("--start", type=int, default=0, help="first scenario index")
+    ap.add_argument("--verbose", action="store_true", help="print the diagnosis's progress lines")
     args = ap.parse_args(argv)
     out_dir = Path(args.out or tempfile.mkdtemp(prefix="bench_diagnose_rig_"))
     out_dir.mkdir(parents=True, exist_ok=True)
@@ -148,7 +149,10 @@ def main(argv=None) -> int:
             t0 = time.perf_counter()
             # the diagnosis sees the files only: white noise and the test signal at 50 % to train,
             # the test signal at 100 % held out; the nominal model is the variant the truth started from
-            d = diagnose_rig(sc.variant, paths[:2], paths[2:])
+            progress = None
+            if args.verbose:
+                progress = lambda t, name=sc.name: print(f"  {name}: {t}", flush=True)  # noqa: E731
+            d = diagnose_rig(sc.variant, paths[:2], paths[2:], progress=progress)
             t_diag = time.perf_counter() - t0
             truth = json.loads((Path(tmp) / truth_name(sc.name)).read_text())
         if sc.variant not in ref_models:
