@@ -97,10 +97,10 @@ class RigDiagnosisSettings:
     # a joint fit is started twice: at the members' screening optima, and with the best-screened physics at
     # its prior start (Hypothesis.prior); the lower training residual wins
     composite_prior_start: bool = True
-    # and a third time with every member at its prior start (needs composite_prior_start). Off by default:
-    # on the thesis-table1 truth it takes round 1 from 0.922 to 0.465 and the diagnosis then finds the pad
-    # (session 15); on the thesis truth it is not measured on the exact composite yet
-    composite_all_prior_start: bool = False
+    # and a third time with every member at its prior start (needs composite_prior_start). On the thesis
+    # truth (session 15, then named thesis-table1) it takes round 1 from 0.922 to 0.465 and the diagnosis
+    # then finds the pad; without it the pad is not found. On by default since session 16
+    composite_all_prior_start: bool = True
     polish_nfev: int = 8  # function evaluations of that time-domain polish
     # in such a round, if no candidate explains enough alone: fit the best-screened linear
     # candidates (at most this many, at different places) together (8 until the two tanks' water and
