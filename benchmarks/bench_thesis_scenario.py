@@ -19,7 +19,7 @@ held and with one held (the fit's view: the two references move together, so the
 identification sees the latter).
 
 Run:  python benchmarks/bench_thesis_scenario.py --out /tmp/thesis_bench [--modes] [--plots] [--seed N]
-      [--references {both,each}] [--reuse] [--scenario {thesis,thesis-dry,thesis-table1}]
+      [--references {both,each}] [--reuse] [--scenario {thesis,thesis-iso,thesis-dry}]
 """
 
 from __future__ import annotations
@@ -69,10 +69,9 @@ def truth_modes(name: str = "thesis") -> float:
 def main(argv=None) -> int:
     ap = argparse.ArgumentParser(description=__doc__.splitlines()[0])
     ap.add_argument("--out", default="/tmp/thesis_bench", help="output directory (created)")
-    ap.add_argument("--scenario", default="thesis", choices=("thesis", "thesis-dry", "thesis-table1"),
-                    help="the thesis truth (default), the session-6 truth without the water (thesis-dry) or "
-                    "the truth tuned to Table 1 (thesis-table1; the diagnosis explains it with "
-                    "--all-prior-start)")
+    ap.add_argument("--scenario", default="thesis", choices=("thesis", "thesis-iso", "thesis-dry"),
+                    help="the thesis truth (default, tuned to Table 1), the truth of sessions 8-15 "
+                    "(thesis-iso) or the session-6 truth without the water (thesis-dry)")
     ap.add_argument("--modes", action="store_true", help="also print the linearised truth's modes")
     ap.add_argument("--plots", action="store_true", help="identification figures into OUT/plots")
     ap.add_argument("--reuse", action="store_true",

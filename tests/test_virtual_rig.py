@@ -29,7 +29,7 @@ def test_registry_has_none_thesis_and_one_scenario_per_effect():
     assert len(THESIS_TABLE1) == 10
     for name, sc in SCENARIOS.items():
         assert sc.description
-        if name not in ("none", "thesis", "thesis-dry", "thesis-table1"):
+        if name not in ("none", "thesis", "thesis-iso", "thesis-dry"):
             assert [a.physics for a in sc.augmentations] == [name]
     from exudyn_study.physics import CATALOGUE
 

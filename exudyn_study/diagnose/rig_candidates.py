@@ -17,7 +17,7 @@ apply). The registration declares
   plain-language explanation (``values``: parameter name -> (fitted value, std)); without
   it the report lists the fitted values.
 
-Every catalogue entry but ``tank_wall_mode`` (a damped resonator inside a tank, in the ``thesis-table1``
+Every catalogue entry but ``tank_wall_mode`` (a damped resonator inside a tank, in the ``thesis``
 truth: the diagnosis cannot name it yet) has a candidate. The built-ins (``added_mass``, ``modal_damping``,
 ``sensor_gain``,
 ``drive_linkage_compliance``, ``joint_stiffness``, ``bushing_stiffness``,

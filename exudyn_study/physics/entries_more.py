@@ -619,8 +619,8 @@ see the tank lighter by ``wall_mass_kg`` across and a damper ``2 zeta m (2 pi f_
 tank and the nearly still walls. The tank's fore-aft (x) and vertical (z) motion and every mode
 that does not move the tank across are unchanged.
 
-The diagnosis has no candidate for this entry yet (the ``thesis-table1`` truth uses it; ``thesis`` does
-not).
+The diagnosis has no candidate for this entry yet (the ``thesis`` truth uses it on the right tank; the
+diagnosis explains that mode's damping with the water and the joints it has).
 """,
     parameters=(
         Parameter("wall_frequency_hz", "Hz", 5.0, 60.0, 20.0,
