@@ -9,7 +9,8 @@
    stabilisation diagram, FRF fit, AutoMAC and mode-shape figures.
 4. With ``--virtual-rig``: the virtual rig's ``thesis`` scenario (Model 3 plus the physics
    it leaves out, through the servo and acquisition chain) for the three signals, EMA of
-   its white-noise recording against thesis Table 1, and the diagnosis of Model 3 against
+   its white-noise recording against thesis Table 1 (one identification per reference, the
+   modes both found averaged, thesis Section 5.1), and the diagnosis of Model 3 against
    the recordings (JSON and HTML report).
 """
 
@@ -111,7 +112,7 @@ def _virtual_rig(out: Path) -> dict:
     from ..identify.plots import plot_all
     from ..recording import read_recording
     from ..virtual_rig import run_virtual_test
-    from ..virtual_rig.thesis import compare_table1
+    from ..virtual_rig.thesis import EMA_REFERENCES, average_identifications, compare_table1
 
     out.mkdir(parents=True, exist_ok=True)
     t0 = time.perf_counter()
@@ -120,18 +121,28 @@ def _virtual_rig(out: Path) -> dict:
         f"[4/5] virtual rig, scenario 'thesis': {', '.join(p.name for p in paths)} in "
         f"{time.perf_counter() - t0:.0f} s (the truth is in thesis_truth.json; nothing else reads it)"
     )
-    res = identify_recording(
-        read_recording(paths[0]), ["ARFVZ", "ARFHZ"], band_hz=(3.0, 50.0), resolution_hz=0.2, estimator="Hv"
-    )
-    write_modes_json(res.model, out / "thesis_modes.json")
-    plot_all(res, out / "figures")
-    rows = compare_table1(
-        [m.frequency_hz for m in res.model.modes], [m.damping_ratio for m in res.model.modes]
-    )
+    # the thesis's procedure (Section 5.1): one identification per reference, the modes both found averaged
+    # (the two references move together, so one identification with both is ill-conditioned)
+    recording = read_recording(paths[0])
+    runs = []
+    for reference in EMA_REFERENCES:
+        res = identify_recording(
+            recording, [reference], band_hz=(3.0, 50.0), resolution_hz=0.2, estimator="Hv"
+        )
+        write_modes_json(res.model, out / f"thesis_modes_{reference}.json")
+        if not runs:
+            plot_all(res, out / "figures")
+        runs.append([
+            {"frequency_hz": m.frequency_hz, "damping_ratio": m.damping_ratio, "mpc": m.mpc}
+            for m in res.model.modes
+        ])
+    modes = average_identifications(runs)
+    rows = compare_table1([m["frequency_hz"] for m in modes], [m["damping_ratio"] for m in modes])
     n_both = sum(r["within_10pct"] for r in rows)
     print(
-        "      EMA of the white-noise recording vs thesis Table 1 (one-to-one pairing): "
-        f"{n_both}/10 within 10 % in frequency and damping"
+        f"      EMA of the white-noise recording (references {' and '.join(EMA_REFERENCES)} one at a time, "
+        f"the modes both found averaged) vs thesis Table 1 (one-to-one pairing): {n_both}/10 within 10 % "
+        "in frequency and damping"
     )
     for r in rows:
         ident = (
@@ -147,7 +158,7 @@ def _virtual_rig(out: Path) -> dict:
     if extra:
         print(
             "      identified modes Table 1 lacks: "
-            + ", ".join(f"{res.model.modes[i].frequency_hz:.2f} Hz" for i in extra)
+            + ", ".join(f"{modes[i]['frequency_hz']:.2f} Hz" for i in extra)
         )
     figures: dict = {}
     diagnosis = diagnose_rig(3, [paths[0], paths[2]], [paths[1]], damping="table6", figures=figures)
@@ -159,6 +170,7 @@ def _virtual_rig(out: Path) -> dict:
     )
     return {
         "recordings": [p.name for p in paths],
-        "identified_modes": len(res.model.modes),
+        "identified_modes": len(modes),
+        "table1_within_10pct": n_both,
         "diagnosis": diagnosis.summary,
     }
