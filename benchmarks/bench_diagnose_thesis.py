@@ -151,7 +151,22 @@ item but the 10 minutes (2685 s, load 1-1.6).
 
 Session 16: the third start on by default (``RigDiagnosisSettings.composite_all_prior_start``;
 ``--no-all-prior-start`` turns it off) and ``thesis-table1`` renamed ``thesis``, the old ``thesis``
-``thesis-iso``. RESULTS_S16
+``thesis-iso``. On ``thesis`` (fresh recordings, the same truth and seed as session 15's, load 3-4.4):
+the same run as session 15's with ``--all-prior-start``: round 1 second start 0.922, third 0.465 (7
+members kept, held-out 4.61 -> 2.44), round 2 the linkage (-> 0.84), round 3 the pad with the right
+tank's water and the right bracket's joint (-> 0.41), the final time-domain refit (-> 0.175) and the
+cubic (2.83e12 N/m^3, truth 3e12: -5.6 %; 71 % of the level-dependent share at the held-out level): 12
+findings, all in the truth, held-out 0.180/0.171, pseudo damage median 59 910 % -> 96 % (84-225 %), 21/21
+closer to 100 %; 4991 s at that load (session 15: 2685 s at load 1-1.6). On ``thesis-iso`` with the
+third start (983e3e2 with ``--all-prior-start``, load 3-4): round 1's third start 0.1351 against the
+second's 0.1566, 9 members kept (held-out 4.47 -> 0.585), the pad (-> 0.374), then the 1800 s budget
+stopped the rounds (round 2 took 976 s at that load), so the cubic was not tried; final held-out
+0.205/0.168, pseudo damage median 44 091 % -> 101 %, 21/21 closer (3515 s). With ``--time-budget 3600``
+(2a4e49e, fresh recordings, load 1-4): the same rounds 1 and 2, then round 3 the right bracket's joint
+(-> 0.229; session 14 missed it), the final refit (-> 0.078): 11 findings, all in the truth, held-out
+0.082/0.074 (session 14: 0.198/0.162), pseudo damage median 44 091 % -> 96 % (69-112 %), 20/21 closer;
+but the budget again stopped the rounds before one found nothing (3212 s used, round 3 took 1393 s at load
+3-4), and the nonlinear candidates are screened only then, so the cubic was not tried (4477 s).
 
 Run: ``python3 benchmarks/bench_diagnose_thesis.py [--out DIR] [--recordings DIR] [--duration S]
 [--protocol levels|original] [--time-budget S] [--scenario thesis|thesis-iso|thesis-dry]
