@@ -132,10 +132,7 @@ def _virtual_rig(out: Path) -> dict:
         write_modes_json(res.model, out / f"thesis_modes_{reference}.json")
         if not runs:
             plot_all(res, out / "figures")
-        runs.append([
-            {"frequency_hz": m.frequency_hz, "damping_ratio": m.damping_ratio, "mpc": m.mpc}
-            for m in res.model.modes
-        ])
+        runs.append([m.to_dict() for m in res.model.modes])
     modes = average_identifications(runs)
     rows = compare_table1([m["frequency_hz"] for m in modes], [m["damping_ratio"] for m in modes])
     n_both = sum(r["within_10pct"] for r in rows)
