@@ -30,7 +30,7 @@ from exudyn_study.calibrate import (
     SensorPoint,
     calibrate,
     exudyn_damped_modes,
-    linearise,
+    linearise_design,
     system_from_model,
 )
 from exudyn_study.identify.model import ModalModel, Mode
@@ -77,9 +77,9 @@ def table1_target() -> ModalModel:
 def two_beam_builder():
     from netgen.occ import Box, OCCGeometry, Pnt, X
 
-    from exudyn_study.fe.assembly import PartMaterial, assemble, interface_from_boundary
-    from exudyn_study.flexbody import add_flexible_body, ffrf_data
-    from exudyn_study.reduction import ReductionSettings, craig_bampton
+    from exudyn_study.bodies.fe.assembly import PartMaterial, assemble, interface_from_boundary
+    from exudyn_study.bodies.ffrf import add_flexible_body, ffrf_data
+    from exudyn_study.bodies.reduction import ReductionSettings, craig_bampton
 
     box = Box(Pnt(0, 0, 0), Pnt(1.0, 0.02, 0.03))
     box.faces.Min(X).name = "root"
@@ -141,7 +141,7 @@ def bench_test_system() -> None:
         system = build(design.ratios(x_true))
         f_ex, z_ex = exudyn_damped_modes(system.mbs)
         t0 = time.perf_counter()
-        lin = linearise(system, design)
+        lin = linearise_design(system, design)
         t_lin = time.perf_counter() - t0
         t0 = time.perf_counter()
         for _ in range(20):

@@ -46,13 +46,13 @@ def _errors_table(label: str, res) -> None:
 
 
 def linkage_acceptance(variant: int, damping: str, duration_s: float, cache_dir=None) -> bool:
-    from exudyn_study import modal
-    from exudyn_study.damage_grid import ModelPlant, iterate_model_drive
-    from exudyn_study.measurement import measure
+    from exudyn_study.linear.response import frf_linear
     from exudyn_study.model import build_model
+    from exudyn_study.model.linearisation import system_modes
     from exudyn_study.physics import entry
     from exudyn_study.signals import drive_signal
-    from exudyn_study.simulate import frf_linear
+    from exudyn_study.sweep.plant import ModelPlant, iterate_model_drive
+    from exudyn_study.virtual_rig.measurement import measure
 
     print(f"== drive iteration, Model {variant} ({damping}) with a {LINKAGE_HZ:g} Hz drive-linkage resonance "
           f"in the truth, {duration_s:g} s white noise")
@@ -65,14 +65,14 @@ def linkage_acceptance(variant: int, damping: str, duration_s: float, cache_dir=
     lin = nominal.lin
     m_eff = float(lin.drive_shape @ lin.full_mass @ lin.drive_shape) + LINKAGE_MASS_KG
     k = (2 * math.pi * LINKAGE_HZ) ** 2 * m_eff  # first guess: the drive's mass on the spring
-    nominal_hz = modal.system_modes(nominal.model, lin, max_frequency_hz=80.0).frequency_hz
+    nominal_hz = system_modes(nominal.model, lin, max_frequency_hz=80.0).frequency_hz
     for _ in range(4):  # the linkage mode couples with the frame: retune k on the new system mode
         truth_model = build()
         entry("drive_linkage_compliance").apply(truth_model, None, stiffness_n_per_m=k,
                                                 mass_kg=LINKAGE_MASS_KG,
                                                 damping_n_s_per_m=LINKAGE_DAMPING_N_S_PER_M)
         truth, k_used = ModelPlant(truth_model, label=f"{damping} + linkage"), k
-        modes_hz = modal.system_modes(truth_model, truth.lin, max_frequency_hz=80.0).frequency_hz
+        modes_hz = system_modes(truth_model, truth.lin, max_frequency_hz=80.0).frequency_hz
         new = [f for f in modes_hz if np.min(np.abs(nominal_hz - f)) > 0.3]
         f_new = min(new, key=lambda f: abs(f - LINKAGE_HZ)) if new else math.nan
         if not new or abs(f_new - LINKAGE_HZ) < 0.5:
@@ -101,7 +101,7 @@ def linkage_acceptance(variant: int, damping: str, duration_s: float, cache_dir=
 
 
 def full_grid(measured_dir: str | None, out: Path, cache_dir=None, iterations: int = 5) -> None:
-    from exudyn_study.damage_grid import measured_recordings, run_grid
+    from exudyn_study.sweep.damage_grid import measured_recordings, run_grid
 
     if measured_dir is None:
         from exudyn_study.virtual_rig import run_virtual_test
@@ -146,7 +146,7 @@ def main() -> None:
     args = p.parse_args()
     out = Path(args.out) if args.out else Path(tempfile.mkdtemp(prefix="damage_grid_"))
     out.mkdir(parents=True, exist_ok=True)
-    from exudyn_study.damage_grid import single_threaded_blas
+    from exudyn_study.infra.blas import single_threaded_blas
 
     t0 = time.perf_counter()
     with single_threaded_blas():  # small dense algebra: one BLAS thread is faster on a loaded machine

@@ -281,8 +281,8 @@ def _load() -> str:
 
 
 def main(argv=None) -> int:
-    from exudyn_study.atomic import write_text_atomic
     from exudyn_study.diagnose.rig import RigDiagnosisSettings, diagnose_rig
+    from exudyn_study.infra.atomic import write_text_atomic
     from exudyn_study.virtual_rig import run_virtual_test, scenario, truth_name
     from exudyn_study.virtual_rig.run import recording_name
 

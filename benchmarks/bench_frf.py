@@ -45,30 +45,21 @@ def main(argv=None) -> int:
     parser.add_argument("--plot", help="PNG: FRF overlays (model, Welch H1, LRM) at ARFVZ, ARFVY and ARFHY")
     args = parser.parse_args(argv)
 
-    from exudyn_study import modal
-    from exudyn_study.blas import single_threaded_blas
     from exudyn_study.identify.lpm import estimate_frf_lpm
-    from exudyn_study.model import build_model
+    from exudyn_study.infra.blas import single_threaded_blas
+    from exudyn_study.linear.response import frf_linear, frf_linear_at_resolution, simulate_linear
+    from exudyn_study.model import build_model, linearise
     from exudyn_study.model.rig import Drive
     from exudyn_study.signals import DEFAULT_RMS_M, drive_signal
-    from exudyn_study.simulate import (
-        IntegratorSettings,
-        estimate_frf,
-        frf_db_error,
-        frf_linear,
-        frf_linear_at_resolution,
-        simulate_exudyn_reduced,
-        simulate_linear,
-    )
-    from exudyn_study.simulate import (
-        _ramp as fade_in,
-    )
+    from exudyn_study.simulate import IntegratorSettings, simulate_exudyn_reduced
+    from exudyn_study.simulate.checks import estimate_frf, frf_db_error
+    from exudyn_study.simulate.drive import _ramp as fade_in
 
     with single_threaded_blas():
         t0 = time.perf_counter()
         model = build_model(args.model, damping="adams-default", mesh_size="production")
         model.assemble()
-        lin = modal.linearize(model)
+        lin = linearise(model)
         print(
             f"Model {args.model}: build + linearise {time.perf_counter() - t0:.1f} s, "
             f"{lin.size} coordinates, "
@@ -135,7 +126,7 @@ def _plot(path, lin, overlays, frf_linear, channels=("ARFVZ", "ARFVY", "ARFHY"))
     matplotlib.use("Agg")
     import matplotlib.pyplot as plt
 
-    from exudyn_study.atomic import atomic_write
+    from exudyn_study.infra.atomic import atomic_write
 
     names = list(lin.sensor_names)
     fig, axes = plt.subplots(len(channels), 1, figsize=(10, 3.2 * len(channels)), sharex=True)

@@ -4,7 +4,7 @@ One command: ``python benchmarks/bench_reduction.py [--meshes coarse production]
 [--joints simple detailed] [--exudyn-hcb]``. Prints, per mesh size and joint model, the DOF
 count and the wall time of each step with a fresh cache, then the time of a cache hit. A mesh
 size whose mesh parameters equal one already timed is reported as that one, not rebuilt (see
-:data:`exudyn_study.fe.chassis.MESH_SIZES`: coarse 0.2 m with less local refinement, production
+:data:`exudyn_study.bodies.fe.chassis.MESH_SIZES`: coarse 0.2 m with less local refinement, production
 0.12 m).
 ``--exudyn-hcb`` also times Exudyn's out-of-the-box
 ``FEMinterface.ComputeHurtyCraigBamptonModes`` (RBE2, scipy) on the same model with the

@@ -66,20 +66,25 @@ def fmt(e) -> str:
 
 
 def bench(name: str, args) -> dict:
-    from exudyn_study import modal
-    from exudyn_study.simulate import (
-        IntegratorSettings,
-        band_limited_rms_error,
-        estimate_frf,
-        frf_db_error,
+    from exudyn_study.linear.response import (
         frf_linear,
         frf_linear_at_resolution,
-        log_decrement_damping,
         modal_initial_state,
+        simulate_linear,
+    )
+    from exudyn_study.model import linearise
+    from exudyn_study.model.linearisation import system_modes
+    from exudyn_study.simulate import (
+        IntegratorSettings,
         prepare_drive,
         simulate_exudyn,
         simulate_exudyn_reduced,
-        simulate_linear,
+    )
+    from exudyn_study.simulate.checks import (
+        band_limited_rms_error,
+        estimate_frf,
+        frf_db_error,
+        log_decrement_damping,
     )
 
     res = {}
@@ -87,8 +92,8 @@ def bench(name: str, args) -> dict:
     t0 = time.perf_counter()
     model = build(name, args.mesh, exudyn_mesh="used")
     model.assemble()
-    lin = modal.linearize(model)
-    modes = modal.system_modes(model, lin, max_frequency_hz=100.0)
+    lin = linearise(model)
+    modes = system_modes(model, lin, max_frequency_hz=100.0)
     print(f"build + linearise: {time.perf_counter() - t0:.1f} s; {lin.size} independent coordinates, "
           f"{len(model.sensors)} sensors; modes < 100 Hz: "
           + ", ".join(f"{f:.1f} Hz/{100 * z:.2f} %" for f, z in zip(modes.frequency_hz, modes.damping_ratio)))
@@ -102,7 +107,7 @@ def bench(name: str, args) -> dict:
           f"{wall:.2f} s wall, {cpu:.2f} s CPU -> {args.duration / wall:.0f}x / {args.duration / cpu:.0f}x "
           "real time", flush=True)
     if args.linear_only:
-        from exudyn_study.blas import single_threaded_blas
+        from exudyn_study.infra.blas import single_threaded_blas
         from exudyn_study.model.rig import Drive
 
         drives = {}
@@ -182,7 +187,7 @@ def bench(name: str, args) -> dict:
         n = int(min(20.0, 25 / (2 * np.pi * modes.frequency_hz[j] * modes.damping_ratio[j])) * 1000)
         ch = int(np.argmax(np.abs(modes.shapes[:, j])))
         model.drive.set_signal(np.zeros(n), 1000.0)
-        from exudyn_study.simulate import free_decay_linear
+        from exudyn_study.linear.response import free_decay_linear
 
         z_lin, _ = log_decrement_damping(free_decay_linear(lin, st0, n)[ch])
         y, _ = simulate_exudyn_reduced(lin, model.drive, IntegratorSettings(step_s=0.125e-3), initial_state=st0)

@@ -47,7 +47,7 @@ def _run(cmd: list[str]) -> tuple[float, str]:
 
 def truth_modes(name: str = "thesis") -> float:
     """Print the linearised truth's system modes up to 60 Hz; return the wall time."""
-    from exudyn_study.modal import linearize, system_modes
+    from exudyn_study.model.linearisation import linearise, system_modes
     from exudyn_study.virtual_rig import scenario
     from exudyn_study.virtual_rig.run import build_truth
     from exudyn_study.virtual_rig.thesis import references_held
@@ -55,7 +55,7 @@ def truth_modes(name: str = "thesis") -> float:
     t0 = time.perf_counter()
     model, _ = build_truth(scenario(name))
     model.assemble()
-    lin = linearize(model)
+    lin = linearise(model)
     one = ("one EMA reference held, ARFVZ: what the identification sees", references_held(lin, ("ARFVZ",)))
     views = (("drive held", lin), ("EMA references held", references_held(lin)), one)
     for title, system in views:

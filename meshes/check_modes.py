@@ -22,8 +22,8 @@ import numpy as np
 import scipy.sparse as sp
 from scipy.sparse.linalg import LinearOperator, eigsh
 
-from exudyn_study.fe.chassis import MESH_SIZES, ChassisDesign, chassis_geometry, mesh_parameters
-from exudyn_study.materials import MATERIALS
+from exudyn_study.bodies.fe.chassis import MESH_SIZES, ChassisDesign, chassis_geometry, mesh_parameters
+from exudyn_study.bodies.materials import MATERIALS
 
 
 def clamped_modes(design: ChassisDesign, mesh_size, n_modes: int):

@@ -20,7 +20,7 @@ import tempfile
 import time
 from pathlib import Path
 
-from exudyn_study.fe.chassis import (
+from exudyn_study.bodies.fe.chassis import (
     COMPONENTS,
     MESH_SIZES,
     ChassisDesign,

@@ -12,7 +12,7 @@ relative pseudo damage of every z sensor computed against the measured recording
 counted at 204.8 Hz). Writes ``damage_grid.csv`` (one row per cell and sensor),
 ``drive_iterations.csv`` (error per iteration run) and bar plots like thesis Figures 22-27
 into ``--out``, and prints a summary and the wall time. The physics is in
-:mod:`exudyn_study.damage_grid`.
+:mod:`exudyn_study.sweep.damage_grid`.
 """
 
 from __future__ import annotations
@@ -32,7 +32,8 @@ def _calibration(text: str) -> tuple[int, str]:
 
 
 def parse_args(argv=None) -> argparse.Namespace:
-    from exudyn_study.damage_grid import DAMPING_NAMES, GRID_DAMPINGS, GRID_SIGNALS
+    from exudyn_study.sweep.damage_grid import GRID_DAMPINGS, GRID_SIGNALS
+    from exudyn_study.sweep.grid_damping import DAMPING_NAMES
 
     p = argparse.ArgumentParser(description=__doc__.splitlines()[0])
     p.add_argument("--measured-dir", required=True, metavar="DIR", help="one <name>_<signal>.h5 per signal")
@@ -59,9 +60,9 @@ def parse_args(argv=None) -> argparse.Namespace:
 
 
 def main(argv=None) -> int:
-    from exudyn_study.damage_grid import measured_recordings, run_grid
+    from exudyn_study.bodies.spec import parse_mesh
     from exudyn_study.errors import InputError
-    from exudyn_study.rig_cli import parse_mesh
+    from exudyn_study.sweep.damage_grid import measured_recordings, run_grid
 
     args = parse_args(argv)
     logging.basicConfig(level=logging.WARNING, format="%(levelname)s %(name)s: %(message)s")

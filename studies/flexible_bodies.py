@@ -24,9 +24,9 @@ from pathlib import Path
 
 import numpy as np
 
-from exudyn_study.atomic import write_text_atomic
 from exudyn_study.bodies import BodySpec, fe_model_and_interfaces, flexible_body
-from exudyn_study.reduction import patched_full_model_frequencies
+from exudyn_study.bodies.reduction import patched_full_model_frequencies
+from exudyn_study.infra.atomic import write_text_atomic
 
 
 def main(argv=None) -> int:

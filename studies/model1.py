@@ -24,18 +24,18 @@ N_MODES = 10
 
 def modes_of(variant: int, damping: str, mesh: str, bushing=None, max_frequency_hz: float = 150.0):
     """(model, system modes) of a variant: built, assembled and linearised."""
-    from exudyn_study.modal import linearize, system_modes
     from exudyn_study.model import build_model
+    from exudyn_study.model.linearisation import linearise, system_modes
 
     model = build_model(variant, damping=damping, mesh_size=mesh, bushing=bushing, exudyn_mesh="used")
     model.assemble()
-    modes = system_modes(model, linearize(model), max_frequency_hz=max_frequency_hz, n_modes=N_MODES)
+    modes = system_modes(model, linearise(model), max_frequency_hz=max_frequency_hz, n_modes=N_MODES)
     return model, modes
 
 
 def save_table(modes, out: Path, stem: str, title: str) -> str:
     """Print and save the mode table (markdown and CSV); returns the markdown."""
-    from exudyn_study.rig_cli import modes_table
+    from exudyn_study.linear.modes import modes_table
 
     md = f"# {title}\n\n" + modes_table(modes, "markdown") + "\n"
     (out / f"{stem}_modes.md").write_text(md)

@@ -21,11 +21,12 @@ from model1 import modes_of, plot_shapes, run, save_table  # noqa: E402
 
 def compare(m1, m3, m3b) -> str:
     """Markdown table: Model 3 modes (fixed) with their Model 1 and bushing partners (MAC pairing)."""
-    from exudyn_study.modal import pair_modes, to_modal_model
+    from exudyn_study.linear.modes import to_modal_model
+    from exudyn_study.linear.pairing import pair_modal_models
 
     mm1, mm3, mm3b = (to_modal_model(m) for m in (m1, m3, m3b))
-    p1 = {p.reference_index: p for p in pair_modes(mm1, mm3, min_mac=0.5, max_frequency_error=0.5)}
-    pb = {p.reference_index: p for p in pair_modes(mm3b, mm3, min_mac=0.5, max_frequency_error=0.5)}
+    p1 = {p.reference_index: p for p in pair_modal_models(mm1, mm3, min_mac=0.5, max_frequency_error=0.5)}
+    pb = {p.reference_index: p for p in pair_modal_models(mm3b, mm3, min_mac=0.5, max_frequency_error=0.5)}
     lines = ["| Model 3 mode | Description (Model 3, fixed) | Model 1 f (Hz) [MAC] | Model 3 fixed f (Hz) | "
              "change vs Model 1 | Model 3 bushing f (Hz) [MAC] | change fixed -> bushing |",
              "|---|---|---|---|---|---|---|"]

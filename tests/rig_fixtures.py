@@ -46,10 +46,10 @@ def mini_frame_geometry():
 
 
 def _build_mini_frame():
-    from exudyn_study.bodies import _to_arrays
-    from exudyn_study.fe.assembly import PartMaterial, assemble, interface_from_boundary
-    from exudyn_study.flexbody import ffrf_data
-    from exudyn_study.reduction import ReductionSettings, craig_bampton
+    from exudyn_study.bodies.fe.assembly import PartMaterial, assemble, interface_from_boundary
+    from exudyn_study.bodies.ffrf import ffrf_data
+    from exudyn_study.bodies.reduction import ReductionSettings, craig_bampton
+    from exudyn_study.bodies.spec import _to_arrays
 
     mesh = mini_frame_geometry().GenerateMesh(maxh=0.09)
     fe = assemble(mesh, [PartMaterial("frame_steel", "steel", 0.0, "frame")])
@@ -61,8 +61,9 @@ def _build_mini_frame():
 
 def mini_bodies():
     """{'chassis': mini frame, 'rear_foundation': the real foundation} as FlexibleBodyData."""
-    from exudyn_study import cache
-    from exudyn_study.bodies import BodySpec, FlexibleBodyData, _from_arrays, _source_digest, flexible_body
+    from exudyn_study.bodies import BodySpec, FlexibleBodyData, flexible_body
+    from exudyn_study.bodies.spec import _from_arrays, _source_digest
+    from exudyn_study.infra import cache
 
     RIG_TEST_CACHE.mkdir(parents=True, exist_ok=True)
     # keyed by the source of the body pipeline too: a change in fe/ or reduction rebuilds the fixture
@@ -162,10 +163,10 @@ def mini_model3_geometry(component: str):
 
 
 def _build_mini_model3_body(component: str):
-    from exudyn_study.bodies import _to_arrays
-    from exudyn_study.fe.assembly import PartMaterial, assemble, interface_from_boundary
-    from exudyn_study.flexbody import ffrf_data
-    from exudyn_study.reduction import ReductionSettings, craig_bampton
+    from exudyn_study.bodies.fe.assembly import PartMaterial, assemble, interface_from_boundary
+    from exudyn_study.bodies.ffrf import ffrf_data
+    from exudyn_study.bodies.reduction import ReductionSettings, craig_bampton
+    from exudyn_study.bodies.spec import _to_arrays
 
     maxh = 0.09 if component in ("frame", "tank_left", "tank_right") else 0.04
     mesh = mini_model3_geometry(component).GenerateMesh(maxh=maxh)
@@ -192,8 +193,9 @@ def _build_mini_model3_body(component: str):
 def mini_model3_bodies():
     """Mini Model 3: {'frame', 'tank_left', 'tank_right', 'bracket_left', 'bracket_right',
     'rear_foundation'} as FlexibleBodyData, each reduced once and cached in the temp directory."""
-    from exudyn_study import cache
-    from exudyn_study.bodies import FlexibleBodyData, _from_arrays, _source_digest
+    from exudyn_study.bodies import FlexibleBodyData
+    from exudyn_study.bodies.spec import _from_arrays, _source_digest
+    from exudyn_study.infra import cache
 
     RIG_TEST_CACHE.mkdir(parents=True, exist_ok=True)
     out = {}

@@ -6,7 +6,7 @@ import json
 
 import numpy as np
 
-from exudyn_study import cache
+from exudyn_study.infra import cache
 
 RECIPE = {"kind": "test", "maxh_m": 0.1, "nested": {"a": [1, 2, 3]}}
 

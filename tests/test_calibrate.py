@@ -16,16 +16,16 @@ import math
 import numpy as np
 import pytest
 
+from exudyn_study.bodies.damping import MAX_RATIO
 from exudyn_study.calibrate import (
     CalibrationSystem,
     DampingDesign,
     SensorPoint,
     calibrate,
     exudyn_damped_modes,
-    linearise,
+    linearise_design,
     pair_modes,
 )
-from exudyn_study.damping import MAX_RATIO
 from exudyn_study.errors import InputError
 from exudyn_study.identify.model import ModalModel, Mode
 
@@ -46,9 +46,9 @@ TARGET_MAX_HZ = 400.0  # 12 system modes, 8 design variables (4 body modes below
 def beam():
     from netgen.occ import Box, OCCGeometry, Pnt, X
 
-    from exudyn_study.fe.assembly import PartMaterial, assemble, interface_from_boundary
-    from exudyn_study.flexbody import ffrf_data
-    from exudyn_study.reduction import ReductionSettings, craig_bampton
+    from exudyn_study.bodies.fe.assembly import PartMaterial, assemble, interface_from_boundary
+    from exudyn_study.bodies.ffrf import ffrf_data
+    from exudyn_study.bodies.reduction import ReductionSettings, craig_bampton
 
     box = Box(Pnt(0, 0, 0), Pnt(1.0, 0.02, 0.03))
     box.faces.Min(X).name = "root"
@@ -80,7 +80,7 @@ def builder(beam):
         import exudyn as exu
         import exudyn.itemInterface as eii
 
-        from exudyn_study.flexbody import add_flexible_body
+        from exudyn_study.bodies.ffrf import add_flexible_body
 
         sc = exu.SystemContainer()
         mbs = sc.AddSystem()
@@ -123,7 +123,7 @@ def forward_target(builder, design, x_true, max_hz=TARGET_MAX_HZ, shapes=True) -
     """Target modes of the system built with known damping: f, zeta from Exudyn itself."""
     system = builder(design.ratios(x_true))
     f_ex, z_ex = exudyn_damped_modes(system.mbs)
-    lin = linearise(system, design)
+    lin = linearise_design(system, design)
     m = lin.modes(x_true)
     assert np.allclose(m.frequency_hz[: f_ex.size], f_ex, rtol=1e-9)
     sel = np.flatnonzero(f_ex < max_hz)
@@ -147,7 +147,7 @@ def test_linear_damping_basis_equals_exudyn_damped_eigenvalues(beam, builder, ab
     design = DampingDesign.per_mode({"A": beam[0], "B": beam[0]}, cutoff_hz=500.0, above=above)
     x = np.random.default_rng(7).uniform(0.0, 0.3, design.n_variables)
     # linearise a system built with unrelated damping: the builder's damping is replaced
-    lin = linearise(builder(design.ratios(np.full(design.n_variables, 0.6))), design)
+    lin = linearise_design(builder(design.ratios(np.full(design.n_variables, 0.6))), design)
     ours = lin.modes(x)
     f_ex, z_ex = exudyn_damped_modes(builder(design.ratios(x)).mbs)
     assert ours.frequency_hz.size == f_ex.size >= 10  # overdamped pairs drop out of both
@@ -158,7 +158,7 @@ def test_linear_damping_basis_equals_exudyn_damped_eigenvalues(beam, builder, ab
 
 
 def test_eigenvalue_derivatives_match_central_differences(builder, per_mode):
-    lin = linearise(builder(per_mode.ratios(np.full(per_mode.n_variables, 0.02))), per_mode)
+    lin = linearise_design(builder(per_mode.ratios(np.full(per_mode.n_variables, 0.02))), per_mode)
     x = np.random.default_rng(3).uniform(0.01, 0.2, per_mode.n_variables)
     m = lin.modes(x, derivatives=True)
     h = 1e-6
@@ -176,7 +176,7 @@ def test_eigenvalue_derivatives_match_central_differences(builder, per_mode):
 
 def test_sensor_shapes_follow_the_beam_physics(builder, per_mode):
     """First mode of a cantilever: tip moves most, shapes grow along the beam, Y/Z separate."""
-    lin = linearise(builder(per_mode.ratios(np.full(per_mode.n_variables, 0.02))), per_mode)
+    lin = linearise_design(builder(per_mode.ratios(np.full(per_mode.n_variables, 0.02))), per_mode)
     m = lin.modes(np.full(per_mode.n_variables, 0.02))
     names = list(lin.sensor_names)
     first = np.abs(m.shapes[:, 0])  # 4.19 Hz: bending about z (20 mm side) -> Y motion
@@ -314,7 +314,7 @@ def test_bad_designs(beam, builder):
     design = DampingDesign.per_body({"C": body})
     system = builder({"A": np.full(body.n_modes, 0.02), "B": np.full(body.n_modes, 0.02)})
     with pytest.raises(InputError, match="design body 'C' is not in the system"):
-        linearise(system, design)
+        linearise_design(system, design)
 
 
 def test_mode_with_damping_outside_unit_interval():

@@ -16,15 +16,15 @@ import pytest
 
 ngs = pytest.importorskip("ngsolve")
 
-from exudyn_study.errors import InputError  # noqa: E402
-from exudyn_study.fe.chassis import (  # noqa: E402
+from exudyn_study.bodies.fe.chassis import (  # noqa: E402
     COMPONENTS,
     ChassisDesign,
     chassis_geometry,
     mesh_parameters,
     rear_foundation_geometry,
 )
-from exudyn_study.materials import MATERIALS  # noqa: E402
+from exudyn_study.bodies.materials import MATERIALS  # noqa: E402
+from exudyn_study.errors import InputError  # noqa: E402
 
 MESH_DIR = Path(__file__).resolve().parents[1] / "meshes"
 # mesh vs CAD mass: straight-sided tets on planar solids are exact, only the

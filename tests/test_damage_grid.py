@@ -45,12 +45,12 @@ def mini_builder(bodies):
 
 def truth_plant(bodies, damping="constant-1"):
     """The 'measured' system: mini frame + a drive linkage resonating at LINKAGE_HZ."""
-    from exudyn_study import modal
-    from exudyn_study.damage_grid import ModelPlant
+    from exudyn_study.model import linearise
     from exudyn_study.physics import entry
+    from exudyn_study.sweep.plant import ModelPlant
 
     build = mini_builder(bodies)
-    lin0 = modal.linearize(build(1, damping))
+    lin0 = linearise(build(1, damping))
     mass = 20.0
     m_eff = float(lin0.drive_shape @ lin0.full_mass @ lin0.drive_shape) + mass
     model = build(1, damping)
@@ -79,7 +79,7 @@ def measured(truth):
 
 @pytest.fixture(scope="module")
 def grid(bodies, measured, tmp_path_factory):
-    from exudyn_study.damage_grid import run_grid
+    from exudyn_study.sweep.damage_grid import run_grid
 
     out = tmp_path_factory.mktemp("grid")
     result = run_grid(measured, models=(1,), dampings=("constant-1", "step"), builder=mini_builder(bodies),
@@ -132,7 +132,8 @@ def test_grid_writes_csv_and_plots(grid):
 def test_model_against_its_own_recording_gives_100_percent(bodies):
     """A recording of the grid's own model driven by its recorded drive (iterate=False):
     every sensor's relative pseudo damage is 100 %."""
-    from exudyn_study.damage_grid import ModelPlant, run_grid
+    from exudyn_study.sweep.damage_grid import run_grid
+    from exudyn_study.sweep.plant import ModelPlant
 
     own = ModelPlant(mini_builder(bodies)(1, "step"))
     rec = {"white-noise": recording_of(own, "white-noise", seed=11)}
@@ -145,7 +146,7 @@ def test_model_against_its_own_recording_gives_100_percent(bodies):
 def test_linkage_resonance_the_iteration_model_lacks(bodies, truth, measured):
     """TWR on the truth (with the 28 Hz linkage) with H of the nominal model (without it):
     far off at D_0, below 5 % within 10 iterations; a fixed H diverges."""
-    from exudyn_study.damage_grid import ModelPlant, iterate_model_drive
+    from exudyn_study.sweep.plant import ModelPlant, iterate_model_drive
 
     nominal = ModelPlant(mini_builder(bodies)(1, "constant-1"))
     # 20 s: the H update needs a few Welch segments per run (12 s: 6.8 % after 10 updates)
@@ -199,7 +200,7 @@ def _no_build(variant, damping):  # bad input must be rejected before any model 
     ],
 )
 def test_bad_input_is_rejected_before_building(measured, kwargs, match):
-    from exudyn_study.damage_grid import run_grid
+    from exudyn_study.sweep.damage_grid import run_grid
 
     args = dict(models=(1,), dampings=("step",), builder=_no_build)
     args.update(kwargs)
@@ -210,7 +211,7 @@ def test_bad_input_is_rejected_before_building(measured, kwargs, match):
 def test_nan_and_missing_recordings(measured, tmp_path):
     import h5py
 
-    from exudyn_study.damage_grid import measured_recordings, run_grid
+    from exudyn_study.sweep.damage_grid import measured_recordings, run_grid
 
     path = tmp_path / "rig_white-noise.h5"
     write_recording(measured["white-noise"], path)
@@ -233,7 +234,7 @@ def test_nan_and_missing_recordings(measured, tmp_path):
 
 
 def test_different_channel_sets(bodies, measured):
-    from exudyn_study.damage_grid import run_grid
+    from exudyn_study.sweep.damage_grid import run_grid
 
     fewer = measured["white-noise"].select(["ARFVZ", "ARFHZ", "ARFMZ", "drive"])
     with pytest.raises(InputError, match=r"lacks compared channel\(s\) AVBFZ, ARVBZ, ARHBZ"):
@@ -241,7 +242,7 @@ def test_different_channel_sets(bodies, measured):
 
 
 def test_calibration_file(bodies, tmp_path):
-    from exudyn_study.damage_grid import damping_from_calibration, resolve_damping
+    from exudyn_study.sweep.grid_damping import damping_from_calibration, resolve_damping
 
     f = np.asarray(bodies["chassis"].body.frequencies_hz)
     cal = {"format": "exudyn_study.calibration", "metadata": {"other_damping": "step"},

@@ -74,8 +74,8 @@ def test_linear_path_steady_state_at_58_hz_matches_the_frf():
     acceleration is the drive's at the sample instants, 1.1 % off with the plain spline; the
     mass integrates the continuous drive and was right to 1.5e-5 already).
     """
-    from exudyn_study.modal import LinearSystem
-    from exudyn_study.simulate import frf_linear, simulate_linear
+    from exudyn_study.linear.response import frf_linear, simulate_linear
+    from exudyn_study.linear.system import LinearSystem
 
     m, k = 2.0, 2.0 * (2 * math.pi * 15.0) ** 2
     c = 2 * 0.02 * math.sqrt(k * m)

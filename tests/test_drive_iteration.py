@@ -6,7 +6,10 @@ import numpy as np
 import pytest
 from scipy import signal as sps
 
-from exudyn_study.drive_iteration import (
+from exudyn_study.errors import InputError
+from exudyn_study.recording import Recording
+from exudyn_study.signals import white_noise
+from exudyn_study.signals.drive_iteration import (
     DriveFRF,
     apply_inverse,
     estimate_frf,
@@ -15,9 +18,6 @@ from exudyn_study.drive_iteration import (
     regularised_inverse,
     target_from_recording,
 )
-from exudyn_study.errors import InputError
-from exudyn_study.recording import Recording
-from exudyn_study.signals import white_noise
 
 FS = 204.8  # simulation rate of the thesis (Section 7.2)
 DURATION_S = 40.0

@@ -36,7 +36,8 @@ def _strong(ref: np.ndarray) -> np.ndarray:
 def test_full_exudyn_path_agrees_with_the_exact_linear_solution():
     """'exudyn' vs 'linear' on the mini frame, white noise 2 s, seed 4; no drift over the run."""
     from exudyn_study.model import build_model_from_bodies
-    from exudyn_study.simulate import band_limited_rms_error, simulate
+    from exudyn_study.simulate import simulate
+    from exudyn_study.simulate.checks import band_limited_rms_error
 
     def run(method):
         model = build_model_from_bodies(mini_bodies(), 1, damping="constant-2", sensors=FRAME_SENSORS,
@@ -91,9 +92,10 @@ def test_stiff_bushing_model_integrates_with_the_default_tolerance():
 
     With the scale-aware tolerance it runs, and agrees with the exact linear solution.
     """
-    from exudyn_study import modal
-    from exudyn_study.model import BushingParameters, build_model_from_bodies
-    from exudyn_study.simulate import band_limited_rms_error, prepare_drive, simulate_exudyn, simulate_linear
+    from exudyn_study.linear.response import simulate_linear
+    from exudyn_study.model import BushingParameters, build_model_from_bodies, linearise
+    from exudyn_study.simulate import prepare_drive, simulate_exudyn
+    from exudyn_study.simulate.checks import band_limited_rms_error
 
     def build():
         return build_model_from_bodies(mini_model3_bodies(), 3, damping="constant-2", sensors=MODEL3_SENSORS,
@@ -101,7 +103,7 @@ def test_stiff_bushing_model_integrates_with_the_default_tolerance():
 
     x = prepare_drive("white-noise", 1.0, seed=4, ramp_s=0.05)[:301]
     ref_model = build()
-    lin = modal.linearize(ref_model)
+    lin = linearise(ref_model)
     ref_model.drive.set_signal(x, 1000.0)
     ref = simulate_linear(lin, ref_model.drive)
     y, stats = simulate_exudyn(build(), x)
@@ -113,13 +115,12 @@ def test_stiff_bushing_model_integrates_with_the_default_tolerance():
 
 def test_position_markers_of_the_spherical_joints_keep_the_linearised_system(monkeypatch):
     """The rig's spherical joints on flexible bodies use position markers (cheaper): same linearisation."""
-    from exudyn_study import modal
-    from exudyn_study.model import build_model_from_bodies
+    from exudyn_study.model import build_model_from_bodies, linearise
     from exudyn_study.model import rig as rig_module
 
     def lin():
         model = build_model_from_bodies(mini_bodies(), 1, damping="constant-2", sensors=FRAME_SENSORS)
-        return model, modal.linearize(model)
+        return model, linearise(model)
 
     fast_model, fast = lin()
     mbs = fast_model.mbs
@@ -137,12 +138,8 @@ def test_position_markers_of_the_spherical_joints_keep_the_linearised_system(mon
 def test_single_newton_iteration_gives_the_converged_accelerations_on_the_linear_rig():
     """The rig with linear CMS bodies is linear in its small motion: one iteration per step is enough."""
     from exudyn_study.model import build_model_from_bodies
-    from exudyn_study.simulate import (
-        IntegratorSettings,
-        band_limited_rms_error,
-        prepare_drive,
-        simulate_exudyn,
-    )
+    from exudyn_study.simulate import IntegratorSettings, prepare_drive, simulate_exudyn
+    from exudyn_study.simulate.checks import band_limited_rms_error
 
     def run(single):
         model = build_model_from_bodies(mini_bodies(), 1, damping="constant-2", sensors=FRAME_SENSORS,

@@ -9,16 +9,16 @@ import pytest
 import rainflow
 
 from exudyn_study.errors import InputError
-from exudyn_study.fatigue import (
+from exudyn_study.recording import Recording
+from exudyn_study.signals import white_noise
+from exudyn_study.signals.fatigue import (
     RelativeDamage,
     cycles_to_failure,
-    plot_relative_pseudo_damage,
     pseudo_damage,
     rainflow_cycles,
     relative_pseudo_damage,
 )
-from exudyn_study.recording import Recording
-from exudyn_study.signals import white_noise
+from exudyn_study.signals.fatigue_plots import plot_relative_pseudo_damage
 
 # ASTM E1049-85 Section 5.4.4, Fig. 6 / Table 4: the load history and its rainflow count
 ASTM_SERIES = np.array([-2.0, 1.0, -3.0, 5.0, -1.0, 3.0, -4.0, 4.0, -2.0])

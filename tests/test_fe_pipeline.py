@@ -12,11 +12,11 @@ import math
 import numpy as np
 import pytest
 
+from exudyn_study.bodies.fe.assembly import PartMaterial, assemble, interface_from_boundary, load_mesh
+from exudyn_study.bodies.ffrf import add_flexible_body, ffrf_data, modal_damping_matrix
+from exudyn_study.bodies.materials import Material
+from exudyn_study.bodies.reduction import ReductionSettings, craig_bampton
 from exudyn_study.errors import InputError
-from exudyn_study.fe.assembly import PartMaterial, assemble, interface_from_boundary, load_mesh
-from exudyn_study.flexbody import add_flexible_body, ffrf_data, modal_damping_matrix
-from exudyn_study.materials import Material
-from exudyn_study.reduction import ReductionSettings, craig_bampton
 
 BEAM_LENGTH_M, BEAM_WIDTH_M, BEAM_HEIGHT_M = 1.0, 0.02, 0.02
 STEEL_E_PA, STEEL_RHO = 210.0e9, 7850.0
@@ -33,7 +33,7 @@ def euler_bernoulli_cantilever_hz() -> np.ndarray:
 
 
 def beam_mesh(maxh: float):
-    from netgen.occ import X, Box, OCCGeometry, Pnt
+    from netgen.occ import Box, OCCGeometry, Pnt, X
 
     box = Box(Pnt(0, 0, 0), Pnt(BEAM_LENGTH_M, BEAM_WIDTH_M, BEAM_HEIGHT_M))
     box.faces.Min(X).name = "clamp"
@@ -94,7 +94,7 @@ def full_model_with_patches_hz(model, itfs, n_modes: int) -> np.ndarray:
     import scipy.sparse as sp
     import scipy.sparse.linalg as spla
 
-    from exudyn_study.reduction import rbe2_mapping
+    from exudyn_study.bodies.reduction import rbe2_mapping
 
     n = model.n_dof
     cols, dof_b = [], []
@@ -197,7 +197,7 @@ def test_chassis_reduced_body_matches_full_model_up_to_100_hz(joint_model):
     Minutes per joint model (cached body; the full model's free-free eigenproblem of 160-263 k DOF).
     """
     from exudyn_study.bodies import BodySpec, fe_model_and_interfaces, flexible_body
-    from exudyn_study.reduction import patched_full_model_frequencies
+    from exudyn_study.bodies.reduction import patched_full_model_frequencies
 
     spec = BodySpec(joint_model=joint_model, mesh_size="production")
     body = flexible_body(spec).body

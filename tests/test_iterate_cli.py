@@ -31,17 +31,16 @@ def bodies():
 
 @pytest.fixture(scope="module")
 def measured_file(bodies, tmp_path_factory):
-    from exudyn_study import modal
-    from exudyn_study.damage_grid import ModelPlant
-    from exudyn_study.model import build_model_from_bodies
+    from exudyn_study.model import build_model_from_bodies, linearise
     from exudyn_study.physics import entry
     from exudyn_study.signals import drive_signal
+    from exudyn_study.sweep.plant import ModelPlant
 
     def build():
         return build_model_from_bodies(bodies, 1, damping="constant-1", sensors=FRAME_SENSORS,
                                        exudyn_mesh="used")
 
-    lin = modal.linearize(build())
+    lin = linearise(build())
     m_eff = float(lin.drive_shape @ lin.full_mass @ lin.drive_shape) + 20.0  # mass the drive moves
     model = build()
     entry("drive_linkage_compliance").apply(model, stiffness_n_per_m=(2 * math.pi * 28.0) ** 2 * m_eff,

@@ -10,11 +10,15 @@ import pytest
 from scipy.integrate import solve_ivp
 
 from exudyn_study.errors import InputError
-from exudyn_study.modal import LinearSystem
+from exudyn_study.linear.nonlinear import (
+    CubicStiffening,
+    JenkinsFriction,
+    LocalNonlinearity,
+    simulate_local_nonlinear,
+)
+from exudyn_study.linear.response import simulate_linear
+from exudyn_study.linear.system import LinearSystem
 from exudyn_study.model.rig import Drive
-from exudyn_study.physics.nonlinear import (CubicStiffening, JenkinsFriction, LocalNonlinearity,
-                                            simulate_local_nonlinear)
-from exudyn_study.simulate import simulate_linear
 
 MASS_KG, STIFFNESS_N_PER_M, DAMPING_N_S_PER_M = 2.0, 2.0 * (2 * math.pi * 15.0) ** 2, 2.0 * 0.02 * 2.0 * 2 * math.pi * 15
 

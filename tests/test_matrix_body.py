@@ -1,7 +1,7 @@
 """The constant-matrix linear CMS body (``element='matrix'``) against the super-element body.
 
 A change of coordinates of the same linear CMS body (interface motions as coordinates,
-:func:`exudyn_study.model.linear_body.interface_coordinate_transformation`): the
+:func:`exudyn_study.bodies.linear_body.interface_coordinate_transformation`): the
 linearised system must be the same, and the Exudyn time integration must agree with the
 exact linear solution as the super-element path does (``tests/test_exudyn_path.py``).
 """
@@ -28,10 +28,11 @@ RTOL_STRONG = 0.05
 
 
 def _modes(model):
-    from exudyn_study import modal
+    from exudyn_study.model import linearise
+    from exudyn_study.model.linearisation import system_modes
 
-    lin = modal.linearize(model)
-    return lin, modal.system_modes(model, lin, max_frequency_hz=150.0)
+    lin = linearise(model)
+    return lin, system_modes(model, lin, max_frequency_hz=150.0)
 
 
 @pytest.mark.parametrize("variant", [1, 3])
@@ -61,7 +62,8 @@ def test_matrix_element_has_the_linearised_system_of_the_superelement(variant):
 def test_matrix_element_time_integration_agrees_with_the_exact_linear_solution():
     """'exudyn' with element='matrix' vs 'linear' on the mini frame (white noise 2 s, seed 4)."""
     from exudyn_study.model import build_model_from_bodies
-    from exudyn_study.simulate import IntegratorSettings, band_limited_rms_error, simulate
+    from exudyn_study.simulate import IntegratorSettings, simulate
+    from exudyn_study.simulate.checks import band_limited_rms_error
 
     def run(method, settings=None):
         model = build_model_from_bodies(mini_bodies(), 1, damping="constant-2", sensors=FRAME_SENSORS,
@@ -84,6 +86,7 @@ def test_matrix_element_time_integration_agrees_with_the_exact_linear_solution()
 def test_drive_offsets_per_step_give_the_python_offset_results(monkeypatch):
     """The drive prescribed once per step (symbolic offset) equals the Python offset function's run."""
     from exudyn_study import simulate as sim
+    from exudyn_study.simulate import exudyn_path
     from exudyn_study.model import build_model_from_bodies
 
     model = build_model_from_bodies(mini_bodies(), 1, damping="constant-2", sensors=FRAME_SENSORS,
@@ -93,7 +96,7 @@ def test_drive_offsets_per_step_give_the_python_offset_results(monkeypatch):
     joint = model.mbs.GetObjectParameter(model.drive.joint, "offsetUserFunction")
     assert joint["type"] == "Python"  # restored after the run
     assert model.mbs.GetPreStepUserFunction() == 0
-    monkeypatch.setattr(sim, "_drive_offsets_per_step", lambda *args: (lambda: None))
+    monkeypatch.setattr(exudyn_path, "_drive_offsets_per_step", lambda *args: (lambda: None))
     y_python, _ = sim.simulate_exudyn(model, x)
     # the index-3 drive constraint turns the drive's rounding (~1e-16 m) into ~1e-7 m/s^2
     np.testing.assert_allclose(y_fast, y_python, rtol=0, atol=1e-5 * np.abs(y_python).max())

@@ -9,7 +9,10 @@ import numpy as np
 import pytest
 
 from exudyn_study.errors import InputError
-from exudyn_study.measurement import (
+from exudyn_study.model.sensors import sensor
+from exudyn_study.recording import Channel, Recording
+from exudyn_study.signals import psd
+from exudyn_study.virtual_rig.measurement import (
     AcquisitionParameters,
     ServoParameters,
     anti_alias_gain,
@@ -17,9 +20,6 @@ from exudyn_study.measurement import (
     servo_frf,
     servo_response,
 )
-from exudyn_study.recording import Channel, Recording
-from exudyn_study.sensors import sensor
-from exudyn_study.signals import psd
 
 FS = 1000.0
 

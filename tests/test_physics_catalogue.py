@@ -31,10 +31,10 @@ def _model(bodies):
 
 @pytest.fixture(scope="module")
 def nominal(bodies):
-    from exudyn_study import modal
+    from exudyn_study.model import linearise
 
     model = _model(bodies)
-    return model, modal.linearize(model)
+    return model, linearise(model)
 
 
 def _undamped(lin):
@@ -112,14 +112,15 @@ def test_bad_location_and_assembled_model(bodies):
 
 def test_added_mass_adds_exactly_its_mass_and_lowers_the_modes_that_move_there(bodies, nominal):
     """Drive-shape mass grows by m |r_loc|^2 exactly; each mode drops by the Rayleigh estimate."""
-    from exudyn_study import modal
+    from exudyn_study.model import linearise
+    from exudyn_study.model.linearisation import body_displacement_map
 
     model0, lin0 = nominal
     m = 0.5
     model = _model(bodies)
     applied = entry("added_mass").apply(model, "ARFVZ", mass_kg=m)
     assert applied.location == "ARFVZ" and applied.parameters["mass_kg"] == m
-    lin = modal.linearize(model)
+    lin = linearise(model)
     assert lin.size == lin0.size  # 3 coordinates, 3 constraints
     idx = np.asarray(model.mbs.systemData.GetNodeLTGODE2(applied.items["node"]), dtype=int)
     r0, r = lin0.drive_shape, lin.drive_shape
@@ -133,7 +134,7 @@ def test_added_mass_adds_exactly_its_mass_and_lowers_the_modes_that_move_there(b
     assert np.all(f1[keep] <= f0[keep] * (1 + 1e-9))  # added mass never raises a frequency
     # first-order (Rayleigh) shift from the nominal modes' motion at the sensor node
     att = model0.sensors["ARFVZ"]
-    bidx, bmat = modal.body_displacement_map(model0, att.body, np.array([att.node]))
+    bidx, bmat = body_displacement_map(model0, att.body, np.array([att.node]))
     u = bmat @ (lin0.nullspace.T @ phi0)[bidx]  # (3, n_modes), phi mass-normalised
     predicted = -0.5 * m * np.sum(u**2, axis=0)
     shift = f1 / f0 - 1.0
@@ -146,13 +147,13 @@ def test_added_mass_adds_exactly_its_mass_and_lowers_the_modes_that_move_there(b
 
 
 def test_added_mass_at_an_interface(bodies, nominal):
-    from exudyn_study import modal
+    from exudyn_study.model import linearise
 
     _, lin0 = nominal
     model = _model(bodies)
     applied = entry("added_mass").apply(model, "front_strut", mass_kg=10.0)
     assert applied.location == "chassis.front_strut"
-    lin = modal.linearize(model)
+    lin = linearise(model)
     f0, _ = _undamped(lin0)
     f1, _ = _undamped(lin)
     keep = (f0 > 1.0) & (f0 < 120.0)
@@ -162,8 +163,9 @@ def test_added_mass_at_an_interface(bodies, nominal):
 
 def test_drive_linkage_compliance_adds_the_linkage_mode_the_frf_shows(bodies, nominal):
     """One more mode at ~sqrt(k / m_eff); the drive -> ARFVZ FRF has its peak there; static response kept."""
-    from exudyn_study import modal
-    from exudyn_study.simulate import frf_linear
+    from exudyn_study.linear.response import frf_linear
+    from exudyn_study.model import linearise
+    from exudyn_study.model.linearisation import system_modes
 
     _, lin0 = nominal
     mass = 20.0
@@ -174,10 +176,10 @@ def test_drive_linkage_compliance_adds_the_linkage_mode_the_frf_shows(bodies, no
     applied = entry("drive_linkage_compliance").apply(model, stiffness_n_per_m=k, damping_n_s_per_m=2e3,
                                                       mass_kg=mass)
     assert applied.location == "drive_linkage"
-    lin = modal.linearize(model)
+    lin = linearise(model)
     assert lin.size == lin0.size + 1  # the lever's rotation is now a coordinate
-    modes = modal.system_modes(model, lin, max_frequency_hz=60.0)
-    modes0 = modal.system_modes(nominal[0], lin0, max_frequency_hz=60.0)
+    modes = system_modes(model, lin, max_frequency_hz=60.0)
+    modes0 = system_modes(nominal[0], lin0, max_frequency_hz=60.0)
     new = [f for f in modes.frequency_hz if np.min(np.abs(modes0.frequency_hz - f)) > 0.5]
     assert len(new) >= 1
     f_new = min(new, key=lambda f: abs(f - target_hz))

@@ -67,10 +67,10 @@ def _model3(bodies, damping="constant-2"):
 
 @pytest.fixture(scope="module")
 def nominal3(bodies3):
-    from exudyn_study import modal
+    from exudyn_study.model import linearise
 
     model = _model3(bodies3)
-    return model, modal.linearize(model)
+    return model, linearise(model)
 
 
 def _undamped(lin):
@@ -92,7 +92,7 @@ def _sine(freq_hz, amplitude_m, seconds, ramp_s=0.3, smooth=False):
 
 def _run(model, lin, gather, samples, laws=None, substeps=8):
     """(sensor accelerations, element displacements) of linear model + the model's local elements."""
-    from exudyn_study.physics.nonlinear import simulate_local_nonlinear
+    from exudyn_study.linear.nonlinear import simulate_local_nonlinear
 
     model.drive.set_signal(samples, RATE_HZ)
     laws = [el.law for el in model.local_nonlinearities] if laws is None else laws
@@ -210,7 +210,7 @@ def _joint_reactions(model, lin, joint, phi):
 
 def test_joint_stiffness_lowers_the_modes_that_load_the_joint_by_the_rayleigh_estimate(bodies3, nominal3):
     """d(w^2) = -sum lambda_j^2 / k_j (first order in 1/k), frame-only modes do not move."""
-    from exudyn_study import modal
+    from exudyn_study.model import linearise
 
     model0, lin0 = nominal3
     k_t, k_r = 2e10, 2e8  # stiff: shifts of ~0.1 %, where first order holds (at 2e9/2e7 the nearly
@@ -225,7 +225,7 @@ def test_joint_stiffness_lowers_the_modes_that_load_the_joint_by_the_rayleigh_es
     applied = entry("joint_stiffness").apply(model, "tank_left_front", stiffness_n_per_m=k_t,
                                              rotational_stiffness_n_m_per_rad=k_r, damping_time_s=0.0)
     assert applied.location == "tank_left.tank_left_front"
-    lin = modal.linearize(model)
+    lin = linearise(model)
     assert lin.size == lin0.size + 6  # six released constraints
     f1 = _undamped(lin)[0][: f0.size]  # the joint's own modes lie far above
     band = (f0 > 1.0) & (f0 < 150.0)
@@ -240,7 +240,7 @@ def test_joint_stiffness_lowers_the_modes_that_load_the_joint_by_the_rayleigh_es
 def _patch_motion(model, interface: str, n_q: int) -> tuple[np.ndarray, np.ndarray, np.ndarray]:
     """(centre, translation (3, n_q), rotation (3, n_q)) of a rigid interface patch per ODE2 coordinate: the
     least-squares rigid motion of its nodes, from the body's mode basis (not from Exudyn's connector)."""
-    from exudyn_study.modal import body_displacement_map
+    from exudyn_study.model.linearisation import body_displacement_map
 
     handle = model.interfaces[interface]
     body = model.bodies[handle.body].body
@@ -275,7 +275,7 @@ def test_joint_stiffness_is_unloaded_at_the_reference_and_its_damper_adds_exactl
 
     import exudyn as exu
 
-    from exudyn_study import modal
+    from exudyn_study.model import linearise
 
     k_t, k_r = 4e9, 5e5  # as stiff as the thesis's left tank mounts
     # the mini tank's patch touches the frame's: shift the tank 1 cm outboard as on the chassis (its
@@ -294,7 +294,7 @@ def test_joint_stiffness_is_unloaded_at_the_reference_and_its_damper_adds_exactl
         model.assemble()
         spring = applied.items["spring"]
         force = np.asarray(model.mbs.GetObjectOutput(spring, exu.OutputVariableType.ForceLocal))
-        lin = modal.linearize(model)
+        lin = linearise(model)
         return model, lin.stiffness, lin.damping, force, lin.nullspace
 
     model, k1, d0, force, null = matrices(k_t, 0.0)
@@ -320,7 +320,7 @@ def test_joint_stiffness_axis_factor_scales_only_that_axis_of_the_spring_and_its
     the patch centres' relative translation along global axis ``a`` per admissible coordinate), its damper
     ``t`` times that; the rotations keep theirs. So K(f) - K(1) = (f - 1) k b_z^T b_z exactly, and a soft
     vertical axis lowers the modes that load the joint vertically and leaves the ones that do not."""
-    from exudyn_study import modal
+    from exudyn_study.model import linearise
 
     k_t, k_r, tau = 2e7, 2e5, 2e-4
 
@@ -330,7 +330,7 @@ def test_joint_stiffness_axis_factor_scales_only_that_axis_of_the_spring_and_its
                                        rotational_stiffness_n_m_per_rad=k_r, damping_time_s=tau,
                                        stiffness_factor_z=factor_z)
         model.assemble()
-        lin = modal.linearize(model)
+        lin = linearise(model)
         return model, lin
 
     model, lin1 = matrices(1.0)
@@ -349,14 +349,15 @@ def test_joint_stiffness_axis_factor_scales_only_that_axis_of_the_spring_and_its
     entry("joint_stiffness").apply(default, "tank_left_front", stiffness_n_per_m=k_t,
                                    rotational_stiffness_n_m_per_rad=k_r, damping_time_s=tau)
     default.assemble()
-    np.testing.assert_array_equal(modal.linearize(default).stiffness, lin1.stiffness)
+    np.testing.assert_array_equal(linearise(default).stiffness, lin1.stiffness)
 
 
 def test_joint_stiffness_rotational_damping_factor_scales_the_damping_of_the_rocking_modes(bodies3):
     """C = t (K_t + f K_r): on an otherwise undamped model each mode's damping ratio is, to first order,
     ``zeta_t + f zeta_r`` (translation's and rotation's shares): f = 0, 1, 3 lie on one line per mode, and
     the default factor (1) is the joint damped alike in both."""
-    from exudyn_study import modal
+    from exudyn_study.model import linearise
+    from exudyn_study.model.linearisation import system_modes
 
     def zeta(factor):
         model = _model3(bodies3, damping=lambda f: np.zeros_like(np.asarray(f, dtype=float)))
@@ -364,7 +365,7 @@ def test_joint_stiffness_rotational_damping_factor_scales_the_damping_of_the_roc
         if factor is not None:
             params["rotational_damping_factor"] = factor
         entry("joint_stiffness").apply(model, "tank_left_front", **params)
-        modes = modal.system_modes(model, modal.linearize(model), max_frequency_hz=150.0)
+        modes = system_modes(model, linearise(model), max_frequency_hz=150.0)
         return modes.frequency_hz, modes.damping_ratio
 
     f0, z0 = zeta(0.0)
@@ -385,9 +386,9 @@ def test_joint_stiffness_rotational_damping_factor_scales_the_damping_of_the_roc
 
 # --------------------------------------------------------------------------------------- joint_friction
 def test_joint_friction_is_the_stiff_joint_below_slip_and_dissipates_4f_a_above(bodies3):
-    from exudyn_study import modal
-    from exudyn_study.physics.nonlinear import JenkinsFriction, gather_vectors
-    from exudyn_study.simulate import frf_linear, simulate_linear
+    from exudyn_study.linear.nonlinear import JenkinsFriction, gather_vectors
+    from exudyn_study.linear.response import frf_linear, simulate_linear
+    from exudyn_study.model import linearise
 
     k, f_slip = 5e7, 3e3
     model = _model3(bodies3)
@@ -395,7 +396,7 @@ def test_joint_friction_is_the_stiff_joint_below_slip_and_dissipates_4f_a_above(
                                   slip_force_n=f_slip)
     # the web's normal is y: x and z slip, y and the rotations stay rigid
     assert [el.name.rsplit(":", 1)[1] for el in model.local_nonlinearities] == ["x", "z"]
-    lin = modal.linearize(model)
+    lin = linearise(model)
     i = list(lin.sensor_names).index("ATVBZ")
     f = np.arange(25.0, 35.0, 0.01)
     f_tank = float(f[np.argmax(np.abs(frf_linear(lin, f)[i, 0]))])  # the left tank's vertical mode, which
@@ -438,15 +439,15 @@ def test_joint_friction_is_the_stiff_joint_below_slip_and_dissipates_4f_a_above(
 
 # --------------------------------------------------------------------------------------- bushing_stiffening
 def test_bushing_stiffening_adds_odd_harmonics_growing_with_the_cube_of_the_level(bodies3):
-    from exudyn_study import modal
-    from exudyn_study.physics.nonlinear import CubicStiffening, gather_vectors
+    from exudyn_study.linear.nonlinear import CubicStiffening, gather_vectors
+    from exudyn_study.model import linearise
 
     k3 = 5e12  # N/m^3: 3/4 k3 a^2 ~ 2 % of the pad's shear stiffness at the higher level (weakly nonlinear)
     model = _model3(bodies3)
     applied = entry("bushing_stiffening").apply(model, cubic_stiffness_n_per_m3=k3)
     assert applied.location == "bracket_left"
     assert [el.direction.tolist() for el in model.local_nonlinearities] == [[0, 0, 1], [1, 0, 0]]
-    lin = modal.linearize(model)
+    lin = linearise(model)
     gather = gather_vectors(model)
     i = list(lin.sensor_names).index("ASVZ")
     f0, seconds, ramp = 5.0, 3.0, 1.0  # below the left bracket's modes (~8 Hz, damping ~0.1 %)
@@ -475,9 +476,9 @@ def test_bushing_stiffening_adds_odd_harmonics_growing_with_the_cube_of_the_leve
 
 
 def _pad_normal(model) -> np.ndarray:
-    from exudyn_study.physics.entries_more import _rubber_body
+    from exudyn_study.physics.rubber import rubber_body
 
-    body = model.bodies[_rubber_body(model)].body
+    body = model.bodies[rubber_body(model)].body
     x = np.asarray(body.node_positions_m)[np.asarray(body.region_nodes["bracket_left_rubber"])]
     return np.eye(3)[int(np.argmin(np.ptp(x, axis=0)))]
 
@@ -504,13 +505,13 @@ def test_bushing_compression_a_tilt_of_the_bracket_compresses_two_quadrants_and_
     that compresses the pad most (the bracket moving along the normal) has all four of one sign."""
     import scipy.linalg as sla
 
-    from exudyn_study import modal
-    from exudyn_study.physics.nonlinear import gather_vectors
+    from exudyn_study.linear.nonlinear import gather_vectors
+    from exudyn_study.model import linearise
 
     model = _model3(bodies3)
     entry("bushing_stiffening").apply(model, cubic_stiffness_n_per_m3=0.0,
                                       compression_cubic_stiffness_n_per_m3=1e12)
-    lin = modal.linearize(model)
+    lin = linearise(model)
     g = gather_vectors(model) @ lin.nullspace.T  # (4, n): quadrant compression per z
     f, phi = _undamped(lin)
     w2 = (TWO_PI * f) ** 2
@@ -530,13 +531,13 @@ def test_bushing_compression_a_tilt_of_the_bracket_compresses_two_quadrants_and_
 
 
 def test_bushing_compression_hardening_gives_odd_harmonics_growing_with_the_cube(bodies3):
-    from exudyn_study import modal
-    from exudyn_study.physics.nonlinear import CubicStiffening, gather_vectors
+    from exudyn_study.linear.nonlinear import CubicStiffening, gather_vectors
+    from exudyn_study.model import linearise
 
     model = _model3(bodies3)
     entry("bushing_stiffening").apply(model, cubic_stiffness_n_per_m3=0.0,
                                       compression_cubic_stiffness_n_per_m3=2e13)
-    lin = modal.linearize(model)
+    lin = linearise(model)
     gather = gather_vectors(model)
     i = list(lin.sensor_names).index("ASVZ")
     f0, seconds, ramp = 5.0, 3.0, 1.0
@@ -562,25 +563,25 @@ def test_bushing_compression_hardening_gives_odd_harmonics_growing_with_the_cube
 def _tank_resonator_mass_kept(bodies3, lin0, name, **params):
     """(model, linearised system) with entry ``name`` in the left tank; checks the total mass is kept (the
     rigid drive motion carries exactly the nominal mass: the resonator's mass is taken off the tank)."""
-    from exudyn_study import modal
+    from exudyn_study.model import linearise
 
     model = _model3(bodies3)
     entry(name).apply(model, "tank_left", **params)
-    lin = modal.linearize(model)
+    lin = linearise(model)
     r0, r = lin0.drive_shape, lin.drive_shape
     assert r @ lin.full_mass @ r == pytest.approx(r0 @ lin0.full_mass @ r0, rel=1e-9)
     return model, lin
 
 
 def test_sloshing_adds_the_tuned_horizontal_modes_and_keeps_mass_and_vertical_response(bodies3, nominal3):
-    from exudyn_study import modal
-    from exudyn_study.simulate import frf_linear
+    from exudyn_study.linear.response import frf_linear
+    from exudyn_study.model.linearisation import system_modes
 
     model0, lin0 = nominal3
     f_s, zeta_s, m_s = 3.0, 0.05, 80.0
     model, lin = _tank_resonator_mass_kept(bodies3, lin0, "sloshing", slosh_frequency_hz=f_s,
                                            slosh_damping_ratio=zeta_s, slosh_mass_kg=m_s)
-    modes = modal.system_modes(model, lin, max_frequency_hz=6.0)
+    modes = system_modes(model, lin, max_frequency_hz=6.0)
     f_u0, phi_u0 = _undamped(lin0)
     assert not np.any((f_u0 > 0.5) & (f_u0 < 6.0))
     # two new modes (x and y) at the tuned frequency and damping (the tank is far stiffer)
@@ -616,14 +617,14 @@ def test_tank_wall_mode_adds_one_tuned_lateral_mode_and_keeps_mass_and_the_tanks
     wall mass's own SDOF: one new mode at the tuning with its damping ratio, moving the tank across (y). The
     drive carries the nominal mass; modes that move the left tank along x or z keep their frequency, those
     across rise or stay (above the tuning the tank is lighter across by the wall mass)."""
-    from exudyn_study import modal
+    from exudyn_study.model.linearisation import system_modes
 
     model0, lin0 = nominal3
     f_w, zeta_w, m_w = 5.0, 0.05, 1.0
     model, lin = _tank_resonator_mass_kept(bodies3, lin0, "tank_wall_mode", wall_frequency_hz=f_w,
                                            wall_damping_ratio=zeta_w, wall_mass_kg=m_w)
-    nominal = modal.system_modes(model0, lin0, max_frequency_hz=45.0)
-    modes = modal.system_modes(model, lin, max_frequency_hz=45.0)
+    nominal = system_modes(model0, lin0, max_frequency_hz=45.0)
+    modes = system_modes(model, lin, max_frequency_hz=45.0)
     assert modes.frequency_hz.size == nominal.frequency_hz.size + 1
     low = modes.frequency_hz < 6.0
     assert low.sum() == 1 and not np.any(nominal.frequency_hz < 6.0)
@@ -647,10 +648,11 @@ def test_tank_wall_mode_tuned_to_a_lateral_mode_damps_it_and_leaves_the_others(b
     """Tuned to the mini Model 3's 21.9 Hz mode (frame and tanks across) the wall mode is a tuned-mass
     damper: that mode gains damping and the wall's own heavily damped mode appears beside it; the modes that
     move the left tank along x or z keep their frequency and damping."""
-    from exudyn_study import modal
+    from exudyn_study.model import linearise
+    from exudyn_study.model.linearisation import system_modes
 
     model0, lin0 = nominal3
-    nominal = modal.system_modes(model0, lin0, max_frequency_hz=45.0)
+    nominal = system_modes(model0, lin0, max_frequency_hz=45.0)
     lateral = [i for i, (f, d) in enumerate(zip(nominal.frequency_hz, nominal.direction, strict=True))
                if 15.0 < f < 30.0 and d["tank_left"] == "Y"]
     assert len(lateral) == 1
@@ -658,7 +660,7 @@ def test_tank_wall_mode_tuned_to_a_lateral_mode_damps_it_and_leaves_the_others(b
     model = _model3(bodies3)
     entry("tank_wall_mode").apply(model, "tank_left", wall_frequency_hz=f_t, wall_damping_ratio=0.1,
                                   wall_mass_kg=5.0)
-    modes = modal.system_modes(model, modal.linearize(model), max_frequency_hz=45.0)
+    modes = system_modes(model, linearise(model), max_frequency_hz=45.0)
     near = np.abs(modes.frequency_hz - f_t) < 0.05 * f_t
     assert near.sum() == 2  # the mode and the wall's own
     zetas = np.sort(modes.damping_ratio[near])
@@ -675,12 +677,12 @@ def test_tank_wall_mode_tuned_to_a_lateral_mode_damps_it_and_leaves_the_others(b
 # --------------------------------------------------------------------------------------- modal_damping
 def test_modal_damping_equals_the_scaled_damping_choice(bodies1):
     """factor x constant-2 on the chassis is constant-(2 x factor): identical linearised systems."""
-    from exudyn_study import modal
+    from exudyn_study.model import linearise
 
     model = _model1(bodies1)
     entry("modal_damping").apply(model, "chassis", factor=0.5)
-    lin = modal.linearize(model)
-    ref = modal.linearize(_model1(bodies1, damping={"chassis": "constant-1"}))
+    lin = linearise(model)
+    ref = linearise(_model1(bodies1, damping={"chassis": "constant-1"}))
     assert np.max(np.abs(lin.damping - ref.damping)) < 1e-10 * np.max(np.abs(ref.damping))
     np.testing.assert_array_equal(lin.stiffness, ref.stiffness)
     np.testing.assert_array_equal(lin.mass, ref.mass)
@@ -688,20 +690,21 @@ def test_modal_damping_equals_the_scaled_damping_choice(bodies1):
     f_cut = 150.0  # a band: only chassis modes up to 150 Hz are scaled
     model = _model1(bodies1)
     entry("modal_damping").apply(model, "chassis", factor=3.0, max_frequency_hz=f_cut)
-    ref = modal.linearize(_model1(bodies1, damping={"chassis": lambda f: np.where(f <= f_cut, 0.06, 0.02)}))
-    lin = modal.linearize(model)
+    ref = linearise(_model1(bodies1, damping={"chassis": lambda f: np.where(f <= f_cut, 0.06, 0.02)}))
+    lin = linearise(model)
     assert np.max(np.abs(lin.damping - ref.damping)) < 1e-10 * np.max(np.abs(ref.damping))
     model = _model1(bodies1)  # applications compose
     entry("modal_damping").apply(model, "chassis", factor=3.0, max_frequency_hz=f_cut)
     entry("modal_damping").apply(model, "chassis", factor=1.5, min_frequency_hz=f_cut)
-    ref = modal.linearize(_model1(bodies1, damping={"chassis": lambda f: np.where(f <= f_cut, 0.06, 0.03)}))
-    lin = modal.linearize(model)
+    ref = linearise(_model1(bodies1, damping={"chassis": lambda f: np.where(f <= f_cut, 0.06, 0.03)}))
+    lin = linearise(model)
     assert np.max(np.abs(lin.damping - ref.damping)) < 1e-10 * np.max(np.abs(ref.damping))
 
 
 def test_modal_damping_scales_the_damping_that_body_dissipates(bodies3, nominal3):
     """zeta_j -> zeta_j + (factor - 1) zeta_j,body (first order, light damping), frequencies kept."""
-    from exudyn_study import modal
+    from exudyn_study.model import linearise
+    from exudyn_study.model.linearisation import system_modes
 
     model0, lin0 = nominal3
     factor, body = 3.0, "bracket_right"
@@ -718,9 +721,9 @@ def test_modal_damping_scales_the_damping_that_body_dissipates(bodies3, nominal3
 
     model = _model3(bodies3)
     entry("modal_damping").apply(model, body, factor=factor)
-    lin = modal.linearize(model)
+    lin = linearise(model)
     np.testing.assert_array_equal(_undamped(lin)[0], f0)  # stiffness and mass untouched
-    modes = modal.system_modes(model, lin, max_frequency_hz=120.0)
+    modes = system_modes(model, lin, max_frequency_hz=120.0)
     band = (f0 > 1.0) & (f0 <= 120.0)
     assert modes.frequency_hz.size == band.sum()
     np.testing.assert_allclose(modes.frequency_hz, f0[band], rtol=2e-3)
@@ -733,7 +736,7 @@ def test_modal_damping_scales_the_damping_that_body_dissipates(bodies3, nominal3
 
 # --------------------------------------------------------------------------------------- sensor_gain
 def test_sensor_gain_scales_one_channel_only(bodies1):
-    from exudyn_study import modal
+    from exudyn_study.model import linearise
     from exudyn_study.simulate import simulate
 
     model0 = _model1(bodies1)
@@ -749,7 +752,7 @@ def test_sensor_gain_scales_one_channel_only(bodies1):
         gain = 1.25 if ch.name == "ARFVZ" else 1.0
         scale = np.max(np.abs(ch0.data))
         np.testing.assert_allclose(ch.data, gain * ch0.data, rtol=1e-12, atol=1e-12 * scale)
-    lin0, lin = modal.linearize(model0), modal.linearize(model)
+    lin0, lin = linearise(model0), linearise(model)
     np.testing.assert_array_equal(lin.stiffness, lin0.stiffness)
     np.testing.assert_array_equal(lin.sensor_map, lin0.sensor_map)
 
@@ -758,9 +761,9 @@ def test_sensor_gain_scales_one_channel_only(bodies1):
 def _face_motion(model, lin, body, nodes, centre, phi):
     """Least-squares rigid motion (translation at ``centre``, rotation), shape (6, n_modes), of mesh ``nodes``
     in the modes ``phi``: ``u_i = t + theta x (x_i - centre)`` fitted to the nodes' displacements."""
-    from exudyn_study import modal
+    from exudyn_study.model.linearisation import body_displacement_map
 
-    idx, mat = modal.body_displacement_map(model, body, np.asarray(nodes))
+    idx, mat = body_displacement_map(model, body, np.asarray(nodes))
     u = (mat @ (lin.nullspace.T @ phi)[idx]).reshape(len(nodes), 3, -1)
     r = np.asarray(model.bodies[body].body.node_positions_m)[nodes] - centre
     rows = []
@@ -775,8 +778,9 @@ def test_bushing_stiffness_raises_the_bracket_modes_by_the_pad_springs_energy(bo
     """d(w^2) = delta^T K_pad delta (first order; delta the rigid-fit motion of the pad's outer face relative
     to its inner face in the mass-normalised mode), d(zeta) = tau delta^T K_pad delta / (2 w), other modes
     stay; ``K_pad`` from the bonded-block formulas: shear G A / t, compression E_c A / t."""
-    from exudyn_study import modal
-    from exudyn_study.physics.entries_structure import pad_spring_matrix, rubber_pad
+    from exudyn_study.model import linearise
+    from exudyn_study.model.linearisation import system_modes
+    from exudyn_study.physics.rubber import pad_spring_matrix, rubber_pad
 
     model0, lin0 = nominal3
     pad = rubber_pad(model0.bodies["bracket_left"].body)
@@ -799,7 +803,7 @@ def test_bushing_stiffness_raises_the_bracket_modes_by_the_pad_springs_energy(bo
     applied = entry("bushing_stiffness").apply(model, shear_modulus_increase_pa=g,
                                                compression_modulus_increase_pa=e_c, damping_time_s=tau)
     assert applied.location == "bracket_left"
-    lin = modal.linearize(model)
+    lin = linearise(model)
     assert lin.size == lin0.size  # a spring: no coordinate added or removed
     f1 = _undamped(lin)[0]
     band = (f0 > 1.0) & (f0 < 150.0)
@@ -817,7 +821,7 @@ def test_bushing_stiffness_raises_the_bracket_modes_by_the_pad_springs_energy(bo
     undamped3 = _model3(bodies3, damping=lambda f: np.zeros_like(np.asarray(f, dtype=float)))
     entry("bushing_stiffness").apply(undamped3, shear_modulus_increase_pa=g,
                                      compression_modulus_increase_pa=e_c, damping_time_s=1e-3)
-    modes = modal.system_modes(undamped3, modal.linearize(undamped3), max_frequency_hz=150.0)
+    modes = system_modes(undamped3, linearise(undamped3), max_frequency_hz=150.0)
     for k in np.flatnonzero(big):
         j = int(np.argmin(np.abs(modes.frequency_hz - f1[k])))
         assert modes.damping_ratio[j] == pytest.approx(1e-3 * energy[k] / (2 * w0[k]), rel=0.15), f0[k]
@@ -826,8 +830,8 @@ def test_bushing_stiffness_raises_the_bracket_modes_by_the_pad_springs_energy(bo
 def test_bushing_stiffness_rocking_factors_scale_the_rocking_springs_only(bodies3, nominal3):
     """The rocking factors multiply the bonded block's rocking stiffness about x and z (K[3, 3], K[5, 5]) and
     nothing else; the bracket modes then move by the energy of that spring (first order, as above)."""
-    from exudyn_study import modal
-    from exudyn_study.physics.entries_structure import pad_spring_matrix, rubber_pad
+    from exudyn_study.model import linearise
+    from exudyn_study.physics.rubber import pad_spring_matrix, rubber_pad
 
     model0, lin0 = nominal3
     pad = rubber_pad(model0.bodies["bracket_left"].body)
@@ -842,7 +846,7 @@ def test_bushing_stiffness_rocking_factors_scale_the_rocking_springs_only(bodies
     model = _model3(bodies3)
     entry("bushing_stiffness").apply(model, shear_modulus_increase_pa=g, compression_modulus_increase_pa=e_c,
                                      rocking_factor_about_x=fx, rocking_factor_about_z=fz)
-    f1 = _undamped(modal.linearize(model))[0]
+    f1 = _undamped(linearise(model))[0]
     big = (f0 > 1.0) & (f0 < 150.0) & (predicted > 2.5e-4)
     assert big.sum() >= 2
     # 0.3: the face rotation fitted here and the rigid marker's (averaged nodes) differ for the deforming
@@ -857,9 +861,10 @@ def test_bushing_stiffness_torsion_change_softens_the_pad_in_torsion_and_stays_p
     and the negative spring gets no damper (a negative damper would drive it); a change that leaves the
     pad's torsion modulus (nominal rubber + increase + change) below 1 % of the nominal rubber's is
     refused."""
-    from exudyn_study import modal
-    from exudyn_study.materials import MATERIALS
-    from exudyn_study.physics.entries_structure import pad_spring_matrix, rubber_pad
+    from exudyn_study.bodies.materials import MATERIALS
+    from exudyn_study.model import linearise
+    from exudyn_study.model.linearisation import system_modes
+    from exudyn_study.physics.rubber import pad_spring_matrix, rubber_pad
 
     model0, lin0 = nominal3
     pad = rubber_pad(model0.bodies["bracket_left"].body)
@@ -879,13 +884,13 @@ def test_bushing_stiffness_torsion_change_softens_the_pad_in_torsion_and_stays_p
                                                torsion_modulus_change_pa=change, damping_time_s=tau)
     d = np.asarray(model.mbs.GetObject(applied.items["spring"])["damping"])
     np.testing.assert_allclose(np.diag(d), tau * np.maximum(np.diag(k), 0.0))
-    f1 = _undamped(modal.linearize(model))[0]
+    f1 = _undamped(linearise(model))[0]
     # the mode that twists the pad (-0.54 % in w^2); a second one loses 0.04-0.05 %, where the face
     # rotation fitted here and the rigid marker's (averaged nodes) differ as in the rocking test above
     twist = (f0 > 1.0) & (f0 < 150.0) & (predicted < -1e-3)
     assert twist.sum() == 1
     np.testing.assert_allclose((f1[twist] / f0[twist]) ** 2 - 1.0, predicted[twist], rtol=0.1)
-    modes = modal.system_modes(model, modal.linearize(model), max_frequency_hz=150.0)
+    modes = system_modes(model, linearise(model), max_frequency_hz=150.0)
     assert modes.damping_ratio.min() > 0
 
     g_rubber = MATERIALS["rubber"].lame_parameters[0]
@@ -920,22 +925,23 @@ def test_rear_support_compliance_lowers_the_modes_that_load_the_support_by_the_r
     """d(w^2) = -(lambda_z^2 / k_z + lambda_y^2 c_y) (first order; lambda the force of the rigid rear support
     in the mass-normalised mode, c_y the lateral compliance); modes that do not load it stay;
     zeta = t (lambda_z^2 / k_z + lambda_y^2 c_y) / (2 w) on an otherwise undamped model."""
-    from exudyn_study import modal
+    from exudyn_study.model import linearise
+    from exudyn_study.model.linearisation import system_modes
 
     undamped = lambda f: np.zeros_like(np.asarray(f, dtype=float))  # noqa: E731
     model0 = _model1(bodies1, damping=undamped)
-    lin0 = modal.linearize(model0)
+    lin0 = linearise(model0)
     f0, phi0 = _undamped(lin0)
     w0 = TWO_PI * np.maximum(f0, 1e-9)
     lam = _joint_reactions(model0, lin0, model0.rig.joints["foundation_rear_left"], phi0)
     k_z, k_y, tau = 5e9, 2e10, 1e-4  # stiff: shifts below 0.1 %, where first order holds; tau omega << 1
     energy = lam[2] ** 2 / k_z + lam[1] ** 2 / k_y  # the springs' strain energy (x 2) per mode
-    lin_x = modal.linearize(_with_rear(bodies1, undamped, k_z, 0.0, tau))
+    lin_x = linearise(_with_rear(bodies1, undamped, k_z, 0.0, tau))
     assert lin_x.size == lin0.size + 1  # zero lateral compliance: y stays a constraint
     predicted = -energy / w0**2
 
     model = _with_rear(bodies1, undamped, k_z, 1.0 / k_y, tau)
-    lin = modal.linearize(model)
+    lin = linearise(model)
     assert lin.size == lin0.size + 2  # two released constraints (y, z)
     f1 = _undamped(lin)[0][: f0.size]
     band = (f0 > 1.0) & (f0 < 150.0)
@@ -947,7 +953,7 @@ def test_rear_support_compliance_lowers_the_modes_that_load_the_support_by_the_r
     assert np.any(big & (lam[1] ** 2 / k_y > 0.5 * energy))  # a mode swinging the frame's rear sideways
     np.testing.assert_allclose(shift[big], predicted[big], rtol=0.05)
     np.testing.assert_allclose(shift[quiet], 0.0, atol=5e-6)
-    modes = modal.system_modes(model, lin, max_frequency_hz=150.0)
+    modes = system_modes(model, lin, max_frequency_hz=150.0)
     for j in np.flatnonzero(big):
         i = int(np.argmin(np.abs(modes.frequency_hz - f1[j])))
         assert modes.damping_ratio[i] == pytest.approx(tau * energy[j] / (2 * w0[j]), rel=0.1), f0[j]
@@ -971,8 +977,7 @@ def test_model3_bushing_joints_are_unloaded_at_the_reference(bodies3):
 
     import exudyn as exu
 
-    from exudyn_study import modal
-    from exudyn_study.model import BushingParameters, build_model_from_bodies
+    from exudyn_study.model import BushingParameters, build_model_from_bodies, linearise
 
     tank = bodies3["tank_left"]
     shift = np.array([0.0, 0.01, 0.0])
@@ -993,7 +998,7 @@ def test_model3_bushing_joints_are_unloaded_at_the_reference(bodies3):
     force = np.asarray(model.mbs.GetObjectOutput(model.joints["tank_left.tank_left_front"],
                                                  exu.OutputVariableType.ForceLocal))
     assert np.abs(force).max() < 1e-6 * k_t * np.linalg.norm(gap)
-    spring = modal.linearize(build(2.0 * k_t)).stiffness - modal.linearize(model).stiffness
+    spring = linearise(build(2.0 * k_t)).stiffness - linearise(model).stiffness
     np.testing.assert_allclose(spring, spring.T, rtol=0, atol=1e-9 * np.abs(spring).max())
     assert np.abs(spring).max() > 0.1 * k_t
 
@@ -1001,13 +1006,14 @@ def test_model3_bushing_joints_are_unloaded_at_the_reference(bodies3):
 def test_sloshing_damps_across_the_tank_by_its_lateral_factor(bodies3):
     """``lateral_damping_factor`` 3: the slosh mode along y has three times the damping ratio of the one
     along x (the tank is far stiffer than the slosh spring, so each slosh mode is the slosh mass's own)."""
-    from exudyn_study import modal
+    from exudyn_study.model import linearise
+    from exudyn_study.model.linearisation import system_modes
 
     f_s, zeta_s, m_s = 3.0, 0.04, 80.0
     model = _model3(bodies3)
     entry("sloshing").apply(model, "tank_left", slosh_frequency_hz=f_s, slosh_damping_ratio=zeta_s,
                             slosh_mass_kg=m_s, lateral_damping_factor=3.0)
-    modes = modal.system_modes(model, modal.linearize(model), max_frequency_hz=6.0)
+    modes = system_modes(model, linearise(model), max_frequency_hz=6.0)
     by_direction = {d["tank_left"]: z for d, z in zip(modes.direction, modes.damping_ratio, strict=True)}
     assert sorted(by_direction) == ["X", "Y"]
     assert by_direction["X"] == pytest.approx(zeta_s, rel=0.03)

@@ -97,7 +97,7 @@ def test_no_temp_files_left_and_overwrite(tmp_path):
 
 
 def test_failed_write_leaves_nothing(tmp_path, monkeypatch):
-    import exudyn_study.recording as recmod
+    import exudyn_study.recording.io as recmod
 
     def boom(recording, path):
         path.write_bytes(b"half")
@@ -200,7 +200,7 @@ def test_read_uff_from_test_software(tmp_path):
 
 
 def test_uff_rate_from_increment_only():
-    from exudyn_study.recording import _rate_from_increment
+    from exudyn_study.recording.uff import _rate_from_increment
 
     assert _rate_from_increment(4.88281e-03) == 204.8  # what E13.5 leaves of 1/204.8
     assert _rate_from_increment(1.00000e-03) == 1000.0

@@ -23,12 +23,12 @@ def bodies():
 
 @pytest.fixture(scope="session")
 def model_and_modes(bodies):
-    from exudyn_study import modal
-    from exudyn_study.model import build_model_from_bodies
+    from exudyn_study.model import build_model_from_bodies, linearise
+    from exudyn_study.model.linearisation import system_modes
 
     model = build_model_from_bodies(bodies, 1, damping="constant-2", sensors=FRAME_SENSORS)
-    lin = modal.linearize(model)
-    return model, lin, modal.system_modes(model, lin, max_frequency_hz=120.0)
+    lin = linearise(model)
+    return model, lin, system_modes(model, lin, max_frequency_hz=120.0)
 
 
 def test_damped_modes_agree_with_exudyn_eigenvalues(model_and_modes):
@@ -46,11 +46,11 @@ def test_damped_modes_agree_with_exudyn_eigenvalues(model_and_modes):
 
 def test_formulations_have_the_same_linearised_system(bodies, model_and_modes):
     """The linear CMS body is the linearisation of the FFRF body: same system modes."""
-    from exudyn_study import modal
     from exudyn_study.model import build_model_from_bodies
+    from exudyn_study.model.linearisation import system_modes
 
     ffrf = build_model_from_bodies(bodies, 1, damping="constant-2", sensors=FRAME_SENSORS, formulation="ffrf")
-    modes_ffrf = modal.system_modes(ffrf, max_frequency_hz=120.0)
+    modes_ffrf = system_modes(ffrf, max_frequency_hz=120.0)
     modes = model_and_modes[2]
     np.testing.assert_allclose(modes_ffrf.frequency_hz, modes.frequency_hz, rtol=1e-6)
     np.testing.assert_allclose(modes_ffrf.damping_ratio, modes.damping_ratio, atol=1e-6)
@@ -67,17 +67,17 @@ def test_drive_shape_lifts_the_frame_front(model_and_modes):
 
 
 def test_modes_json_schema_and_self_pairing(model_and_modes, tmp_path):
-    from exudyn_study import modal
+    from exudyn_study import linear
     from exudyn_study.identify.model import read_modes_json, write_modes_json
 
     model, _, modes = model_and_modes
-    mm = modal.to_modal_model(modes, model.metadata)
+    mm = linear.to_modal_model(modes, model.metadata)
     path = write_modes_json(mm, tmp_path / "m.json")
     back = read_modes_json(path)
     np.testing.assert_allclose(back.frequency_hz, modes.frequency_hz)
     assert all(m.description for m in back.modes)
     assert set(back.channels) == set(FRAME_SENSORS)
-    pairs = modal.pair_modes(back, back)
+    pairs = linear.pair_modal_models(back, back)
     assert len(pairs) == len(back)
     # distinct modes can share a shape at 8 sensors; each mode pairs with itself or an equivalent one
     assert all(p.mac > 0.99 for p in pairs)

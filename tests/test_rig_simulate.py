@@ -17,16 +17,17 @@ pytest.importorskip("exudyn")
 
 @pytest.fixture(scope="module")
 def model_lin():
-    from exudyn_study import modal
-    from exudyn_study.model import build_model_from_bodies
+    from exudyn_study.model import build_model_from_bodies, linearise
 
     model = build_model_from_bodies(mini_bodies(), 1, damping="constant-2", sensors=FRAME_SENSORS)
-    return model, modal.linearize(model)
+    return model, linearise(model)
 
 
 def test_exact_discretisation_matches_frf_in_steady_state(model_lin):
     """A ramped sine: after the transient, the sampled response is |H| sin(w t + arg H)."""
-    from exudyn_study.simulate import OUTPUT_RATE_HZ, _ramp, frf_linear, simulate_linear
+    from exudyn_study.linear.response import frf_linear, simulate_linear
+    from exudyn_study.simulate import OUTPUT_RATE_HZ
+    from exudyn_study.simulate.drive import _ramp
 
     model, lin = model_lin
     f0 = 23.0
@@ -47,7 +48,7 @@ def test_exact_discretisation_matches_frf_in_steady_state(model_lin):
 
 def test_frf_at_low_frequency_is_rigid_drive_motion(model_lin):
     """Far below the first mode the frame follows the drive: H -> -w^2 * (static drive shape)."""
-    from exudyn_study.simulate import frf_linear
+    from exudyn_study.linear.response import frf_linear
 
     _, lin = model_lin
     f = 0.5
@@ -107,15 +108,15 @@ def test_divergence_is_reported_with_time_and_no_file(tmp_path):
 
 def test_marker_node_subset_keeps_the_linearised_system():
     """A few well-spread nodes of each rigid interface patch give the same system modes."""
-    from exudyn_study import modal
     from exudyn_study.model import build_model_from_bodies
+    from exudyn_study.model.linearisation import system_modes
 
     full = build_model_from_bodies(mini_bodies(), 1, damping="constant-2", sensors=FRAME_SENSORS, marker_nodes=None)
     fast = build_model_from_bodies(mini_bodies(), 1, damping="constant-2", sensors=FRAME_SENSORS,
                                    exudyn_mesh="used")
     assert len(fast.bodies["chassis"].mesh_node_map) < 60
-    a = modal.system_modes(full, max_frequency_hz=120.0)
-    b = modal.system_modes(fast, max_frequency_hz=120.0)
+    a = system_modes(full, max_frequency_hz=120.0)
+    b = system_modes(fast, max_frequency_hz=120.0)
     np.testing.assert_allclose(b.frequency_hz, a.frequency_hz, rtol=1e-9)
     np.testing.assert_allclose(b.damping_ratio, a.damping_ratio, atol=1e-9)
     np.testing.assert_allclose(np.abs(b.shapes), np.abs(a.shapes), atol=1e-8)
@@ -123,13 +124,9 @@ def test_marker_node_subset_keeps_the_linearised_system():
 
 def test_exudyn_reduced_converges_to_the_exact_solution(model_lin):
     """Generalised-alpha (rho 1) on the projected linearisation: error ~ h^2, small at 1/16 ms."""
-    from exudyn_study.simulate import (
-        IntegratorSettings,
-        band_limited_rms_error,
-        prepare_drive,
-        simulate_exudyn_reduced,
-        simulate_linear,
-    )
+    from exudyn_study.linear.response import simulate_linear
+    from exudyn_study.simulate import IntegratorSettings, prepare_drive, simulate_exudyn_reduced
+    from exudyn_study.simulate.checks import band_limited_rms_error
 
     model, lin = model_lin
     x = prepare_drive("white-noise", 2.0, seed=4)
@@ -147,16 +144,13 @@ def test_exudyn_reduced_converges_to_the_exact_solution(model_lin):
 @pytest.mark.slow
 def test_free_decay_log_decrement_matches_damped_eigenvalues(model_lin):
     """Acceptance: free decay (Exudyn, reduced linear model) vs damped eigen-analysis, 2 % in zeta."""
-    from exudyn_study import modal
-    from exudyn_study.simulate import (
-        IntegratorSettings,
-        log_decrement_damping,
-        modal_initial_state,
-        simulate_exudyn_reduced,
-    )
+    from exudyn_study.linear.response import modal_initial_state
+    from exudyn_study.model.linearisation import system_modes
+    from exudyn_study.simulate import IntegratorSettings, simulate_exudyn_reduced
+    from exudyn_study.simulate.checks import log_decrement_damping
 
     model, lin = model_lin
-    modes = modal.system_modes(model, lin, max_frequency_hz=60.0)
+    modes = system_modes(model, lin, max_frequency_hz=60.0)
     for j in (0, 1, 2):
         st = modal_initial_state(modes, j)
         n = int(min(15.0, 20 / (2 * np.pi * modes.frequency_hz[j] * modes.damping_ratio[j])) * 1000)
@@ -180,18 +174,13 @@ def test_white_noise_frf_matches_modal_frf(model_lin):
     0.13 %-damped 29 Hz mode: half-power bandwidth 0.08 Hz, resolution 0.06 Hz: the peak
     is 1.2 dB low in any Welch estimate of this length).
     """
-    from exudyn_study import modal
-    from exudyn_study.simulate import (
-        estimate_frf,
-        frf_db_error,
-        frf_linear,
-        frf_linear_at_resolution,
-        prepare_drive,
-        simulate_linear,
-    )
+    from exudyn_study.linear.response import frf_linear, frf_linear_at_resolution, simulate_linear
+    from exudyn_study.model.linearisation import system_modes
+    from exudyn_study.simulate import prepare_drive
+    from exudyn_study.simulate.checks import estimate_frf, frf_db_error
 
     model, lin = model_lin
-    modes = modal.system_modes(model, lin, max_frequency_hz=70.0)
+    modes = system_modes(model, lin, max_frequency_hz=70.0)
     x = prepare_drive("white-noise", 80.0, seed=2)
     model.drive.set_signal(x, 1000.0)
     y = simulate_linear(lin, model.drive)

@@ -5,7 +5,7 @@ from __future__ import annotations
 import pytest
 
 from exudyn_study.errors import InputError
-from exudyn_study.sensors import (
+from exudyn_study.model.sensors import (
     REFERENCES,
     SENSORS,
     Sensor,

@@ -12,7 +12,7 @@ import pytest
 
 from exudyn_study.errors import InputError
 from exudyn_study.virtual_rig import SCENARIOS
-from exudyn_study.virtual_rig.scenarios import THESIS_TABLE1
+from exudyn_study.virtual_rig.scenario import THESIS_TABLE1
 from exudyn_study.virtual_rig.thesis import (
     THESIS_PARAMETERS,
     THESIS_SCENARIO,
@@ -81,7 +81,7 @@ def test_pairing_is_one_to_one_and_reports_extra_and_missing():
 def test_linearised_truth_modes_where_the_fit_put_them():
     """Real Model 3 bodies (cache): the system modes of the fitted truth.
 
-    Regression values of the fit (``THESIS_FIT``; exudyn_study.modal.system_modes, 0-60 Hz),
+    Regression values of the fit (``THESIS_FIT``; exudyn_study.linear.modes.system_modes, 0-60 Hz),
     with 2 % on frequency. Free (drive held): the tank sway at 11.7 Hz, the tank/bracket
     cluster at 12.8-15.7 Hz (Model 3 with fixed joints: tanks at 22 and 26 Hz), the wall mode at
     18.5 Hz (22 %), the frame yaw at 21.0 Hz, the linkage resonance mixed with the tanks' fore-aft
@@ -94,14 +94,14 @@ def test_linearised_truth_modes_where_the_fit_put_them():
     15.0, 32.8 and 36.8 Hz (1.45, 5.42 and 3.24 %) and the frame bouncing on its rear supports with the
     right tank at 41.3 and 44.7 Hz (1.24 and 1.94 %).
     """
-    from exudyn_study.modal import linearize, system_modes
+    from exudyn_study.model.linearisation import linearise, system_modes
     from exudyn_study.virtual_rig.run import build_truth
     from exudyn_study.virtual_rig.thesis import references_held
 
     model, applied = build_truth(THESIS_SCENARIO)
     assert len(applied) == len(THESIS_SCENARIO.augmentations)
     model.assemble()
-    lin = linearize(model)
+    lin = linearise(model)
     modes = system_modes(model, lin, max_frequency_hz=60.0)
     f = modes.frequency_hz
     for expected in (11.71, 12.84, 14.94, 15.68, 18.47, 20.96, 27.10, 27.31, 32.76, 36.78, 47.39):
@@ -224,14 +224,14 @@ def test_the_wall_mode_damps_the_tanks_lateral_mode_and_not_the_right_bracket():
     gains (1.22 -> 1.47 %: it moves the tanks across too, but farther below the wall's tuning), while the left
     bracket's z mode, the frame bouncing at 44.6 Hz and the right bracket's mode keep theirs (+0.01-0.02
     points measured)."""
-    from exudyn_study.modal import linearize, system_modes
+    from exudyn_study.model.linearisation import linearise, system_modes
     from exudyn_study.virtual_rig.run import build_truth
     from exudyn_study.virtual_rig.thesis import references_held
 
     def held_modes(sc):
         model, _ = build_truth(sc)
         model.assemble()
-        return system_modes(model, references_held(linearize(model), ("ARFVZ",)), max_frequency_hz=50.0)
+        return system_modes(model, references_held(linearise(model), ("ARFVZ",)), max_frequency_hz=50.0)
 
     with_wall = held_modes(THESIS_SCENARIO)
     without = held_modes(dataclasses.replace(THESIS_SCENARIO, augmentations=tuple(

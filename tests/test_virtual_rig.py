@@ -11,8 +11,18 @@ import numpy as np
 import pytest
 
 from exudyn_study.errors import InputError
-from exudyn_study.virtual_rig import (SCENARIOS, THESIS_TABLE1, Augment, Scenario, random_scenario,
-                                      recording_name, run_virtual_test, scenario, truth_name, virtual_recording)
+from exudyn_study.virtual_rig import (
+    SCENARIOS,
+    THESIS_TABLE1,
+    Augment,
+    Scenario,
+    random_scenario,
+    recording_name,
+    run_virtual_test,
+    scenario,
+    truth_name,
+    virtual_recording,
+)
 
 sys.path.insert(0, __file__.rsplit("/", 1)[0])
 from rig_fixtures import FRAME_SENSORS, mini_bodies  # noqa: E402
@@ -55,7 +65,7 @@ def test_recording_and_truth_are_separate_and_the_recording_names_no_physics(bod
 
 def test_measured_recording_differs_from_the_ideal_by_the_chain_only(bodies):
     """'none' on the mini frame: the noise floor of the measured channels is the sensor noise density."""
-    from exudyn_study.measurement import ServoParameters
+    from exudyn_study.virtual_rig.measurement import ServoParameters
 
     sc = Scenario("mini-none", "test", variant=1, damping="constant-2",
                   servo=ServoParameters(tracking_noise_rms_m=0.0))
@@ -73,7 +83,7 @@ def test_measured_recording_differs_from_the_ideal_by_the_chain_only(bodies):
 
 
 def test_level_scales_a_linear_truth(bodies):
-    from exudyn_study.measurement import AcquisitionParameters, ServoParameters
+    from exudyn_study.virtual_rig.measurement import AcquisitionParameters, ServoParameters
 
     sc = Scenario("mini-none", "test", variant=1, damping="constant-2",
                   servo=ServoParameters(tracking_noise_rms_m=0.0), acquisition=AcquisitionParameters(noise_density=0.0))

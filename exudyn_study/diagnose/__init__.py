@@ -17,9 +17,9 @@ tests and benchmarks), :mod:`.cli` is the ``exudyn-study diagnose`` subcommand. 
 neither exudyn nor ngsolve.
 """
 
-from .generic import GenericSettings, check_recordings, diagnose_generic
-from .rig_candidates import register_rig_candidate, unregister_rig_candidate
-from .schema import Diagnosis, Finding, read_json
+from exudyn_study.diagnose.generic import GenericSettings, check_recordings, diagnose_generic
+from exudyn_study.diagnose.rig_candidates import register_rig_candidate, unregister_rig_candidate
+from exudyn_study.diagnose.schema import Diagnosis, Finding, read_json
 
 __all__ = [
     "Diagnosis",

@@ -85,9 +85,9 @@ import scipy.special
 import scipy.stats
 from scipy.interpolate import CubicSpline
 
-from ..errors import InputError
-from ..recording import Recording
-from .schema import Diagnosis, Finding
+from exudyn_study.diagnose.schema import Diagnosis, Finding
+from exudyn_study.errors import InputError
+from exudyn_study.recording.types import Recording
 
 __all__ = [
     "diagnose_generic",
@@ -319,7 +319,7 @@ def _drive_on_grid(u: np.ndarray, fs: float, substeps: int = 1, derivative: int 
     The band-limited reconstruction of the rig's drive
     (:func:`exudyn_study.model.rig.band_limited_upsample` by
     :data:`~exudyn_study.model.rig.DRIVE_UPSAMPLING`, then a cubic spline through the fine samples),
-    the one the virtual rig and :func:`~exudyn_study.physics.nonlinear.simulate_local_nonlinear`
+    the one the virtual rig and :func:`~exudyn_study.linear.nonlinear.simulate_local_nonlinear`
     drive with. A spline through the samples themselves is off by about ``(omega / fs)^2 / 12`` in
     acceleration (12 % at 100 Hz sampled at 512 Hz); on the fine grid that is 64 times smaller.
 
@@ -327,7 +327,7 @@ def _drive_on_grid(u: np.ndarray, fs: float, substeps: int = 1, derivative: int 
     -------
     ndarray, shape ((N - 1) substeps + 1,)
     """
-    from ..model.rig import DRIVE_UPSAMPLING, band_limited_upsample
+    from exudyn_study.model.rig import DRIVE_UPSAMPLING, band_limited_upsample
 
     fine = band_limited_upsample(np.asarray(u, dtype=float), DRIVE_UPSAMPLING)
     spline = CubicSpline(np.arange(fine.size) / (fs * DRIVE_UPSAMPLING), fine, bc_type="natural")
@@ -339,7 +339,7 @@ def _drive_acceleration(u: np.ndarray, fs: float) -> np.ndarray:
 
 
 def _welch_T(a_b: np.ndarray, x: np.ndarray, fs: float, resolution_hz: float, fmax: float):
-    from ..identify.frf import estimate_frf
+    from exudyn_study.identify.frf import estimate_frf
 
     return estimate_frf(a_b, x, fs, resolution_hz=resolution_hz, estimator="H1", fmax_hz=fmax)
 
@@ -484,7 +484,7 @@ class ReducedModel:
 
 def _kernel(spec: _Spectra) -> tuple[np.ndarray, np.ndarray]:
     """Offsets (Hz) and weights of the Welch spectral window: E[H1](f) = sum_k H(f + off_k) w_k."""
-    from ..identify.lsfd import Leakage
+    from exudyn_study.identify.lsfd import Leakage
 
     n_seg = int(round(spec.rate_hz / spec.resolution_hz))
     off, k = Leakage(spec.rate_hz, n_seg, "hann").kernel(oversample=2, half_width=3)
@@ -623,8 +623,8 @@ def identify_reduced_model(
     With a force drive, ``drive_point`` names the accelerometer at the force (its residues give
     the mass normalisation).
     """
-    from ..identify.frf import FRF
-    from ..identify.pipeline import identify_frf
+    from exudyn_study.identify.frf import FRF
+    from exudyn_study.identify.pipeline import identify_frf
 
     if f0 is None:
         frf = FRF(
@@ -941,7 +941,7 @@ class _TimeSim:
     (``substeps`` per sample) in complex modal form: the drive acceleration (band-limited
     reconstruction of the drive displacement, :func:`_drive_on_grid`) with first-order hold,
     the element force held over a sub-step (one sub-step of delay, as
-    :func:`exudyn_study.physics.nonlinear.simulate_local_nonlinear`).
+    :func:`exudyn_study.linear.nonlinear.simulate_local_nonlinear`).
     The linear response is computed once per recording (``lfilter``); the element's
     correction is integrated for many (parameter set, recording) jobs in parallel, vectorised.
     """

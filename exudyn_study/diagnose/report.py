@@ -23,8 +23,8 @@ from pathlib import Path
 
 import numpy as np
 
-from ..errors import InputError
-from .schema import Diagnosis
+from exudyn_study.diagnose.schema import Diagnosis
+from exudyn_study.errors import InputError
 
 __all__ = ["write_report"]
 
@@ -36,7 +36,7 @@ def _figure(width: float, height: float):
 
 
 def _save(fig, path: Path) -> Path:
-    from ..atomic import atomic_write
+    from exudyn_study.infra.atomic import atomic_write
 
     return atomic_write(path, lambda tmp: fig.savefig(tmp, dpi=110, bbox_inches="tight", format="png"),
                         "figure")
@@ -400,6 +400,6 @@ def write_report(
         + "</pre></details>"
     )
     parts.append("</body></html>")
-    from ..atomic import write_text_atomic
+    from exudyn_study.infra.atomic import write_text_atomic
 
     return write_text_atomic(out / "index.html", "\n".join(parts), "report")

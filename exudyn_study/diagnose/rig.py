@@ -47,9 +47,7 @@ from collections.abc import Callable, Sequence
 
 import numpy as np
 
-from ..blas import one_blas_thread
-from ..errors import InputError
-from .rig_candidates import (
+from exudyn_study.diagnose.rig_candidates import (
     RIG_CANDIDATES,
     CandidateContext,
     ExplainContext,
@@ -57,7 +55,7 @@ from .rig_candidates import (
     sensor_component,
     unregister_rig_candidate,
 )
-from .rig_compare import (
+from exudyn_study.diagnose.rig_compare import (
     BANDS_HZ,
     METRIC,
     band_filter,
@@ -67,7 +65,7 @@ from .rig_compare import (
     significance_map,
     summary_error,
 )
-from .rig_hypotheses import (
+from exudyn_study.diagnose.rig_hypotheses import (
     Hypothesis,
     NonlinearSystem,
     log_bounds,
@@ -75,7 +73,9 @@ from .rig_hypotheses import (
     to_params,
     to_x,
 )
-from .schema import Diagnosis, Finding
+from exudyn_study.diagnose.schema import Diagnosis, Finding
+from exudyn_study.errors import InputError
+from exudyn_study.infra.blas import one_blas_thread
 
 __all__ = ["diagnose_rig", "RigDiagnosisSettings", "register_rig_candidate", "unregister_rig_candidate"]
 
@@ -156,7 +156,8 @@ def _label(name) -> str:
 
 
 def _load(recs, what):
-    from ..recording import Recording, read_recording
+    from exudyn_study.recording.io import read_recording
+    from exudyn_study.recording.types import Recording
 
     out = []
     for r in recs or []:
@@ -199,7 +200,7 @@ class _Evaluator:
     F_MAX_HZ = 110.0
 
     def __init__(self, recordings, sensor_names, pad_s: float = 30.0, exact: bool = False):
-        from .rig_compare import RATE_HZ
+        from exudyn_study.diagnose.rig_compare import RATE_HZ
 
         self.exact = exact
         self.pad_s = pad_s
@@ -221,7 +222,7 @@ class _Evaluator:
             self.spectra.append((n, n_fft, f[keep], spec[keep]))
 
     def simulate(self, lin, gains=None):
-        from ..simulate import frf_linear
+        from exudyn_study.linear.response import frf_linear
 
         if self.exact or isinstance(lin, NonlinearSystem):
             return self.simulate_exact(lin, gains)
@@ -244,13 +245,13 @@ class _Evaluator:
 
     def simulate_exact(self, lin, gains=None):
         """Simulate by exact discretisation (:func:`~exudyn_study.simulate.simulate_linear`)."""
-        from ..simulate import simulate_linear
+        from exudyn_study.linear.response import simulate_linear
 
         key = ("exact", id(lin))
         if key in self._cache and self._cache[key][0] is lin:
             base = self._cache[key][1]
         elif isinstance(lin, NonlinearSystem):
-            from ..physics.nonlinear import simulate_local_nonlinear
+            from exudyn_study.linear.nonlinear import simulate_local_nonlinear
 
             base = [
                 simulate_local_nonlinear(lin.lin, r.drive, lin.gather, lin.laws, lin.substeps)[idx]
@@ -305,8 +306,8 @@ class _SpectralEvaluator:
         self.n_effective = int(sum(w.size for w in self.weight))
 
     def residual_vector(self, lin, gains=None):
-        from ..errors import SimulationError
-        from ..simulate import frf_linear
+        from exudyn_study.errors import SimulationError
+        from exudyn_study.linear.response import frf_linear
 
         lin = getattr(lin, "lin", lin)
         try:  # an FRF exists for any mass matrix; a structure's is positive definite
@@ -371,7 +372,7 @@ def _fit(h: Hypothesis, ev: _Evaluator, channels, max_nfev=30, jac=None, info: d
 
 def _safe_residual(h: Hypothesis, ev: _Evaluator, channels, p):
     """Return the candidate's residual vector at ``p`` (None where its system is unstable or singular)."""
-    from ..errors import SimulationError, StudyError
+    from exudyn_study.errors import SimulationError, StudyError
 
     try:
         with np.errstate(all="ignore"):
@@ -492,9 +493,9 @@ def _drift(h: Hypothesis, p, firm_good, ev, channels, st, jac=None) -> dict | No
 
 def _decay_time(lin, factor: float = 5.0, floor_s: float = 4.0) -> float:
     """Zero padding for the convolution: ``factor`` times the slowest decay time of the modes below 200 Hz."""
-    from ..simulate import _state_space
+    from exudyn_study.linear.system import state_space
 
-    a = _state_space(lin)[0]
+    a = state_space(lin)[0]
     lam = np.linalg.eigvals(a)
     lam = lam[(np.abs(lam) > 2 * math.pi * 0.5) & (np.abs(lam) < 2 * math.pi * 200)]
     if lam.size == 0:
@@ -505,7 +506,7 @@ def _decay_time(lin, factor: float = 5.0, floor_s: float = 4.0) -> float:
 
 def _effective_samples(ev: _Evaluator) -> int:
     """Independent residual samples: 2 x bandwidth x duration per channel."""
-    from .rig_compare import BAND_HZ, RATE_HZ
+    from exudyn_study.diagnose.rig_compare import BAND_HZ, RATE_HZ
 
     if hasattr(ev, "n_effective"):
         return ev.n_effective
@@ -522,7 +523,7 @@ def _aic(rss: float, k: int, n_eff: int) -> float:
 
 def _catalogue_default(physics: str, name: str) -> float:
     """Return the catalogue default of parameter ``name`` of entry ``physics``."""
-    from ..physics import entry
+    from exudyn_study.physics.catalogue import entry
 
     return float(entry(physics).parameter(name).default)
 
@@ -614,7 +615,7 @@ def _fit_together(
 
     Returns fit records like the single fits (one per member kept), or an empty list.
     """
-    from .rig_hypotheses import CompositeHypothesis, HeldHypothesis
+    from exudyn_study.diagnose.rig_hypotheses import CompositeHypothesis, HeldHypothesis
 
     members, places = [], set()
     for i in np.argsort(scores)[::-1]:
@@ -861,8 +862,8 @@ def _final_refit(
         held, and ``holdable``: those ``hold_at_bound`` holds); None with fewer than two linear
         findings or when they cannot be combined.
     """
-    from ..physics import entry
-    from .rig_hypotheses import CompositeHypothesis
+    from exudyn_study.diagnose.rig_hypotheses import CompositeHypothesis
+    from exudyn_study.physics.catalogue import entry
 
     members = [r for r in records if r["accepted"] is not None and r["h"].kind_linear]
     if len(members) < 2:
@@ -1159,7 +1160,7 @@ def diagnose_rig(
 ) -> Diagnosis:
     """Diagnose the mismatch between model ``variant`` and the recordings.
 
-    Runs with one BLAS thread (:func:`~exudyn_study.blas.one_blas_thread`): the work is
+    Runs with one BLAS thread (:func:`~exudyn_study.infra.blas.one_blas_thread`): the work is
     thousands of small (~100x100) eigen/solve problems, which multi-threaded BLAS makes
     several times slower on a shared machine.
 
@@ -1194,10 +1195,10 @@ def diagnose_rig(
         No training or held-out recording, different sensor layouts, no drive channel,
         channels the model lacks.
     """
-    from ..model import build_model, build_model_from_bodies
-    from ..physics import CATALOGUE
-    from ..physics.entries import location_point
-    from ..rig_cli import parse_damping
+    from exudyn_study.bodies.damping import parse_damping
+    from exudyn_study.model import build_model, build_model_from_bodies
+    from exudyn_study.physics.catalogue import CATALOGUE
+    from exudyn_study.physics.entries import location_point
 
     st = settings or RigDiagnosisSettings()
     say = progress or (lambda text: log.info(text))
@@ -1222,7 +1223,7 @@ def diagnose_rig(
             bodies, variant, damping=damping_fn, sensors=sensors, exudyn_mesh="used"
         )
 
-    from ..physics import entry
+    from exudyn_study.physics.catalogue import entry
 
     wanted = set(candidates) if candidates is not None else None
 
@@ -1807,7 +1808,7 @@ def _gains(h: Hypothesis, p, channels):
 
 def _model_t(lin, freq, channels, sensor_names, gains=None):
     """Model transmissibility (sensor acceleration / drive acceleration) at ``freq``, (n_channels, n_f)."""
-    from ..simulate import frf_linear
+    from exudyn_study.linear.response import frf_linear
 
     idx = [list(sensor_names).index(c) for c in channels]
     lin = getattr(lin, "lin", lin)  # a NonlinearSystem: its linear tangent (the figure says so)
@@ -1956,7 +1957,7 @@ class _DistortionEvaluator:
     """
 
     def __init__(self, pair, sensor_names, pad_s: float):
-        from .rig_compare import BAND_HZ, RATE_HZ
+        from exudyn_study.diagnose.rig_compare import BAND_HZ, RATE_HZ
 
         c, a, b, n = pair
         self.c = c
@@ -2049,7 +2050,7 @@ def _level_dependent(recs, sims, rows, distortion=None) -> bool:
 
 def _damage(recs, before, after):
     """Relative pseudo damage (Basquin beta 5) at the z sensors, before and after, per held-out recording."""
-    from ..fatigue import pseudo_damage
+    from exudyn_study.signals.fatigue import pseudo_damage
 
     out = {}
     for r, b, a in zip(recs, before, after, strict=True):

@@ -44,7 +44,7 @@ from dataclasses import dataclass, field
 
 import numpy as np
 
-from ..errors import InputError
+from exudyn_study.errors import InputError
 
 __all__ = [
     "CandidateContext",
@@ -73,7 +73,7 @@ class CandidateContext:
     ----------
     model : exudyn_study.model.Model
         The current model (nominal plus the findings so far), assembled.
-    lin : exudyn_study.modal.LinearSystem
+    lin : exudyn_study.linear.modes.LinearSystem
         Its linearisation (the linear tangent where it has nonlinear findings).
     build : callable
         ``build() -> Model``: a fresh, not yet assembled copy of the current model.
@@ -112,7 +112,7 @@ class CandidateContext:
     @staticmethod
     def entry(name: str):
         """Return the catalogue entry ``name``."""
-        from ..physics import entry
+        from exudyn_study.physics.catalogue import entry
 
         return entry(name)
 
@@ -198,7 +198,7 @@ def register_rig_candidate(
         Unknown catalogue entry, a factory or ``explain`` that is not callable, a bad ``kind``, or
         ``physics`` already registered without ``replace``.
     """
-    from ..physics import CATALOGUE
+    from exudyn_study.physics.catalogue import CATALOGUE
 
     if physics not in CATALOGUE:
         raise InputError(
@@ -228,7 +228,7 @@ def unregister_rig_candidate(physics: str) -> None:
 
 def sensor_component(name: str) -> str | None:
     """Return the component a thesis sensor sits on (None for a sensor outside the table)."""
-    from ..sensors import SENSORS
+    from exudyn_study.model.sensors import SENSORS
 
     for s in SENSORS:
         if s.name == name:
@@ -238,8 +238,8 @@ def sensor_component(name: str) -> str | None:
 
 # --------------------------------------------------------------------------------------- built-ins
 def _added_mass(ctx: CandidateContext):
-    from ..physics.nonlinear import marker_displacement_map
-    from .rig_hypotheses import AddedMassHypothesis
+    from exudyn_study.diagnose.rig_hypotheses import AddedMassHypothesis
+    from exudyn_study.linear.nonlinear import marker_displacement_map
 
     out, seen = [], []
     model = ctx.model
@@ -267,7 +267,7 @@ def _added_mass(ctx: CandidateContext):
 
 
 def _modal_damping(ctx: CandidateContext):
-    from .rig_hypotheses import ModalDampingHypothesis
+    from exudyn_study.diagnose.rig_hypotheses import ModalDampingHypothesis
 
     out = []
     model = ctx.model
@@ -294,7 +294,7 @@ def _modal_damping(ctx: CandidateContext):
 
 
 def _sensor_gain(ctx: CandidateContext):
-    from .rig_hypotheses import SensorGainHypothesis
+    from exudyn_study.diagnose.rig_hypotheses import SensorGainHypothesis
 
     return [
         SensorGainHypothesis(
@@ -312,7 +312,7 @@ def _sensor_gain(ctx: CandidateContext):
 
 
 def _drive_linkage(ctx: CandidateContext):
-    from .rig_hypotheses import AffineHypothesis
+    from exudyn_study.diagnose.rig_hypotheses import AffineHypothesis
 
     if ("drive_linkage_compliance", "drive_linkage") in ctx.done:
         return []
@@ -338,7 +338,7 @@ def _drive_linkage(ctx: CandidateContext):
 
 def _component_joints(ctx: CandidateContext, sensors):
     """Model-3 component joints not yet found whose component carries one of ``sensors`` (first first)."""
-    from ..physics.entries_more import component_joints
+    from exudyn_study.physics.entries_more import component_joints
 
     if getattr(ctx.model, "variant", None) != 3:
         return []
@@ -411,7 +411,7 @@ def _joint_fields(entry):
 @functools.cache
 def _joint_hypothesis_class():
     """Return the joint candidate's class (built once, on first use)."""
-    from .rig_hypotheses import ConnectorHypothesis
+    from exudyn_study.diagnose.rig_hypotheses import ConnectorHypothesis
 
     class JointHypothesis(ConnectorHypothesis):
         """``joint_stiffness`` fitted with its vertical stiffness apart (the entry's stiffness_factor_z)."""
@@ -523,7 +523,7 @@ _PAD_TIES = {
 
 def pad_fit_values(values: dict) -> dict:
     """Return the pad candidate's moduli (all of :data:`PAD_NAMES`) from ``bushing_stiffness`` values."""
-    from ..physics import entry
+    from exudyn_study.physics.catalogue import entry
 
     e = entry("bushing_stiffness")
     full = {p.name: float(values.get(p.name, p.default)) for p in e.parameters}
@@ -546,9 +546,9 @@ def _pad_basis_for(free):
     """
 
     def basis(model):
-        from ..physics.entries_structure import _rubber_body, pad_spring_matrix, rubber_pad
+        from exudyn_study.physics.rubber import pad_spring_matrix, rubber_body, rubber_pad
 
-        pad = rubber_pad(model.bodies[_rubber_body(model)].body)
+        pad = rubber_pad(model.bodies[rubber_body(model)].body)
         normal_only = pad_spring_matrix(pad, 0.0, 1.0, (0.0, 0.0, 0.0))
         part = {
             "shear_modulus_increase_pa": pad_spring_matrix(pad, 1.0, 0.0, torsion_modulus_change_pa=-1.0),
@@ -570,7 +570,7 @@ def _pad_basis_for(free):
 
 def _pad_fields(entry, free=PAD_FREE):
     """(names, units, lower, upper, start) of the pad candidate fitting ``free``, bounds from the entry's."""
-    from ..materials import MATERIALS
+    from exudyn_study.bodies.materials import MATERIALS
 
     shear, compression = entry.parameter("shear_modulus_increase_pa"), entry.parameter(
         "compression_modulus_increase_pa"
@@ -600,7 +600,7 @@ def _pad_fields(entry, free=PAD_FREE):
 @functools.cache
 def _pad_hypothesis_class():
     """Return the pad's hypothesis class (built once, on first use: this module does not import them)."""
-    from .rig_hypotheses import ConnectorHypothesis
+    from exudyn_study.diagnose.rig_hypotheses import ConnectorHypothesis
 
     class PadHypothesis(ConnectorHypothesis):
         """``bushing_stiffness`` fitted in moduli of :data:`PAD_NAMES` (the spring is linear in them)."""
@@ -721,7 +721,7 @@ def _rear_support_fields(entry):
 @functools.cache
 def _rear_support_hypothesis_class():
     """Return the rear support's hypothesis class (built once, on first use)."""
-    from .rig_hypotheses import ConnectorHypothesis
+    from exudyn_study.diagnose.rig_hypotheses import ConnectorHypothesis
 
     class RearSupportHypothesis(ConnectorHypothesis):
         """``rear_support_compliance`` fitted with its longitudinal compliance as a stiffness (linear)."""
@@ -818,7 +818,7 @@ _TANK_COMPONENTS = ("tank_left", "tank_right")
 
 def _sloshing(ctx: CandidateContext):
     """Return the water sloshing in each tank whose sensors see the mismatch (mass, damping ratio, factor)."""
-    from .rig_hypotheses import SloshingHypothesis
+    from exudyn_study.diagnose.rig_hypotheses import SloshingHypothesis
 
     entry = ctx.entry("sloshing")
     out = []
@@ -854,7 +854,7 @@ def _sloshing(ctx: CandidateContext):
 
 def _cubic_laws(p, elements):
     """Cubic stiffening laws with coefficient ``p[0]`` for every new element."""
-    from ..physics.nonlinear import CubicStiffening
+    from exudyn_study.linear.nonlinear import CubicStiffening
 
     return [CubicStiffening(float(p[0])) for _ in elements]
 
@@ -869,7 +869,7 @@ BUSHING_TERMS = (
 
 
 def _bushing(ctx: CandidateContext):
-    from .rig_hypotheses import LocalElementHypothesis
+    from exudyn_study.diagnose.rig_hypotheses import LocalElementHypothesis
 
     if ("bushing_stiffening", "bracket_left") in ctx.done:
         return []
@@ -905,20 +905,20 @@ FRICTION_START = {"stuck_stiffness_n_per_m": 5e7, "slip_force_n": 1e3}
 
 def _jenkins_laws(p, elements):
     """Jenkins elements (stuck spring ``p[0]`` in series with a slider of ``p[1]``) for every new element."""
-    from ..physics.nonlinear import JenkinsFriction
+    from exudyn_study.linear.nonlinear import JenkinsFriction
 
     return [JenkinsFriction(float(p[0]), float(p[1])) for _ in elements]
 
 
 def _joint_friction(ctx: CandidateContext):
-    from ..physics.entries_more import _contact_normal
-    from .rig_hypotheses import LocalElementHypothesis
+    from exudyn_study.diagnose.rig_hypotheses import LocalElementHypothesis
+    from exudyn_study.physics.entries_more import contact_normal
 
     out = []
     # where the response has a local nonlinear share (else where the mismatch is)
     for key in _component_joints(ctx, ctx.nonlinear_sensors or ctx.located):
         comp, itf = key.split(".", 1)
-        normal = _contact_normal(ctx.model, key)
+        normal = contact_normal(ctx.model, key)
 
         def stiffness_vector(p, normal=normal):
             return [0.0 if a == normal else float(p[0]) for a in range(3)]

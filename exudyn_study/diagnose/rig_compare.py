@@ -26,7 +26,7 @@ from dataclasses import dataclass, field
 import numpy as np
 from scipy import signal as sps
 
-from ..errors import InputError
+from exudyn_study.errors import InputError
 
 __all__ = [
     "RigRecording",
@@ -94,8 +94,8 @@ def prepare(recording, sensor_names, name: str = "", max_duration_s: float | Non
     InputError
         No drive channel, a channel the model lacks, a wrong acceleration rate, NaN.
     """
-    from ..model.rig import Drive
-    from ..signals import resample
+    from exudyn_study.model.rig import Drive
+    from exudyn_study.signals.drives import resample
 
     who = f"recording {name!r}" if name else "recording"
     drives = [ch for ch in recording if ch.role == "drive"]

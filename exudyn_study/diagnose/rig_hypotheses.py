@@ -34,7 +34,7 @@ from dataclasses import dataclass, field
 
 import numpy as np
 
-from ..modal import LinearSystem
+from exudyn_study.linear.system import LinearSystem
 
 __all__ = [
     "Hypothesis",
@@ -215,13 +215,13 @@ class AffineHypothesis(Hypothesis):
 
     def __init__(self, physics, location, entry, build: Callable, start: dict, steps: dict, **where):
         super().__init__(physics, location, *_entry_fields(entry, start), **where)
-        from ..modal import linearize
+        from exudyn_study.model.linearisation import linearise
 
         def lin_at(values):
             model = build()
             entry.apply(model, location, **values)
             model.assemble()
-            return linearize(model)
+            return linearise(model)
 
         self.base = lin_at(dict(start))
         self.p0 = self.start.copy()  # where ``base`` was linearised (``start`` may move in screening)
@@ -265,7 +265,7 @@ class SloshingHypothesis(Hypothesis):
 
     def __init__(self, location, entry, build: Callable, frequency_hz: float, start: dict, **where):
         super().__init__("sloshing", location, *_entry_fields(entry, start), **where)
-        from ..modal import linearize
+        from exudyn_study.model.linearisation import linearise
 
         self.fixed = {"slosh_frequency_hz": float(frequency_hz), **self.fixed}
         self.omega = 2.0 * np.pi * float(frequency_hz)
@@ -276,7 +276,7 @@ class SloshingHypothesis(Hypothesis):
             entry.apply(model, location, slosh_frequency_hz=float(frequency_hz), slosh_mass_kg=mass,
                         slosh_damping_ratio=zeta, lateral_damping_factor=factor)
             model.assemble()
-            return linearize(model)
+            return linearise(model)
 
         self.base = lin_at(self.m0, 0.0, 0.0)
         heavier = lin_at(2.0 * self.m0, 0.0, 0.0)
@@ -448,12 +448,12 @@ def model_system(model):
 
     Its linearisation, plus its local nonlinear elements (:class:`NonlinearSystem`) if it has any.
     """
-    from ..modal import linearize
-    from ..physics.nonlinear import gather_vectors
+    from exudyn_study.linear.nonlinear import gather_vectors
+    from exudyn_study.model.linearisation import linearise
 
     if not model.assembled:
         model.assemble()
-    lin = linearize(model)
+    lin = linearise(model)
     elements = list(getattr(model, "local_nonlinearities", ()))
     if not elements:
         return lin
@@ -469,19 +469,19 @@ class _Relinearised:
     """
 
     def __init__(self, model):
-        from ..modal import linearize
+        from exudyn_study.model.linearisation import linearise
 
         self.model = model
-        self.base = linearize(model)
+        self.base = linearise(model)
 
     def derivative(self, item: int, name: str, base_value, changed_value, scale: float):
         """(dM, dC, dK) of setting parameter ``name`` of ``item`` from base to changed, per ``scale``."""
-        from ..modal import linearize
+        from exudyn_study.model.linearisation import linearise
 
         mbs = self.model.mbs
         mbs.SetObjectParameter(item, name, changed_value)
         try:
-            other = linearize(self.model)
+            other = linearise(self.model)
         finally:
             mbs.SetObjectParameter(item, name, base_value)
         return tuple(
@@ -606,7 +606,7 @@ class LocalElementHypothesis(Hypothesis):
         **where,
     ):
         super().__init__(physics, location, *_entry_fields(entry, start), **where)
-        from ..physics.nonlinear import gather_vectors
+        from exudyn_study.linear.nonlinear import gather_vectors
 
         model = build()
         n_old = len(model.local_nonlinearities)
@@ -664,7 +664,7 @@ class CompositeHypothesis(Hypothesis):
     """
 
     def __init__(self, members, build: Callable, free: dict | None = None):
-        from ..physics import entry as catalogue_entry
+        from exudyn_study.physics.catalogue import entry as catalogue_entry
 
         self.members = list(members)
         specs = []  # (member index, parameter name)
@@ -693,7 +693,7 @@ class CompositeHypothesis(Hypothesis):
             for i, (h, s) in enumerate(zip(self.members, starts, strict=True))
         ]
         lin_point = np.array([at[i][n] for i, n in specs])
-        from ..modal import linearize
+        from exudyn_study.model.linearisation import linearise
 
         def lin_at(values_per_member):
             model = build()
@@ -701,7 +701,7 @@ class CompositeHypothesis(Hypothesis):
                 name, loc, carried = h.carried([values[n] for n in h.names])
                 catalogue_entry(name).apply(model, loc, **carried)
             model.assemble()
-            return linearize(model)
+            return linearise(model)
 
         self.base = lin_at(at)
         self.p0 = lin_point  # where ``base`` is linearised (``start`` is where a fit starts)

@@ -43,7 +43,7 @@ from collections.abc import Mapping, Sequence
 from dataclasses import dataclass, field
 from pathlib import Path
 
-from ..errors import InputError
+from exudyn_study.errors import InputError
 
 __all__ = ["Finding", "Diagnosis", "read_json", "FORMAT_NAME", "FORMAT_VERSION", "FIT_KEYS", "LOCATION_KEYS"]
 
@@ -323,7 +323,7 @@ class Diagnosis:
         path = Path(path)
         if not path.parent.is_dir():
             raise InputError(f"diagnosis JSON {str(path)!r}: directory {str(path.parent)!r} does not exist")
-        from ..atomic import write_text_atomic
+        from exudyn_study.infra.atomic import write_text_atomic
 
         return write_text_atomic(path, self.to_json(), "diagnosis JSON")
 

@@ -16,19 +16,19 @@ Joint laws (``joint=``):
     A linear joint (the structure is linear: diagnosis must find nothing).
 ``'friction'``
     Jenkins micro-slip: a share of the joint stiffness acts through a Coulomb slider
-    (:class:`~exudyn_study.physics.nonlinear.JenkinsFriction`); above the slip
+    (:class:`~exudyn_study.linear.nonlinear.JenkinsFriction`); above the slip
     displacement the joint softens and dissipates (frequencies down, damping up with
     level).
 ``'stiffening'``
-    A cubic hardening spring (:class:`~exudyn_study.physics.nonlinear.CubicStiffening`):
+    A cubic hardening spring (:class:`~exudyn_study.linear.nonlinear.CubicStiffening`):
     frequencies up with level, damping unchanged.
 ``'clearance'``
     A dead zone: beyond a gap the joint gains contact stiffness
     (:class:`DeadZoneSpring`); frequencies up with level once the gap closes.
 
-The truth is simulated with :func:`exudyn_study.physics.nonlinear.simulate_local_nonlinear`
+The truth is simulated with :func:`exudyn_study.linear.nonlinear.simulate_local_nonlinear`
 (exact linear part, the joint's residual force held over a sub-step) on a hand-built
-:class:`~exudyn_study.modal.LinearSystem`; measurement noise (white, absolute, the same at
+:class:`~exudyn_study.linear.modes.LinearSystem`; measurement noise (white, absolute, the same at
 every level) is added to the accelerations. Imports neither exudyn nor ngsolve.
 
 Examples
@@ -45,8 +45,8 @@ from dataclasses import dataclass
 
 import numpy as np
 
-from ..errors import InputError
-from ..recording import Channel, Recording
+from exudyn_study.errors import InputError
+from exudyn_study.recording.types import Channel, Recording
 
 __all__ = [
     "JOINTS",
@@ -122,7 +122,7 @@ class TestStructure:
 class DeadZoneSpring:
     """Clearance: no force inside ``|delta| <= gap_m``, ``stiffness (|delta| - gap)`` beyond.
 
-    A :class:`~exudyn_study.physics.nonlinear.ForceLaw` (memoryless). Its linear tangent at
+    A :class:`~exudyn_study.linear.nonlinear.ForceLaw` (memoryless). Its linear tangent at
     rest is zero, so the structure's small-amplitude joint stiffness is the spring in
     parallel with the clearance.
 
@@ -177,7 +177,7 @@ def _matrices(structure: TestStructure):
 
 
 def linear_system(structure: TestStructure | None = None, force_at: str | None = None):
-    """Return the structure as a :class:`~exudyn_study.modal.LinearSystem` (table = drive).
+    """Return the structure as a :class:`~exudyn_study.linear.modes.LinearSystem` (table = drive).
 
     Sensors measure absolute accelerations; the joint spring is the small-amplitude stiffness.
 
@@ -190,10 +190,10 @@ def linear_system(structure: TestStructure | None = None, force_at: str | None =
 
     Returns
     -------
-    exudyn_study.modal.LinearSystem
+    exudyn_study.linear.modes.LinearSystem
         Coordinates ``q = (table, A1, A2, B1, B2, B3)``, ``z`` = the five masses.
     """
-    from ..modal import LinearSystem
+    from exudyn_study.linear.system import LinearSystem
 
     structure = structure or TestStructure()
     mf, cf, kf = _matrices(structure)
@@ -252,7 +252,7 @@ def joint_law(joint: str, structure: TestStructure | None = None):
     slips. Clearance: the open joint has the nominal stiffness, the closed one
     ``1 + contact_ratio`` times it. Stiffening: the nominal stiffness plus ``k3 delta^3``.
     """
-    from ..physics.nonlinear import CubicStiffening, JenkinsFriction
+    from exudyn_study.linear.nonlinear import CubicStiffening, JenkinsFriction
 
     structure = structure or TestStructure()
     if joint not in JOINTS:
@@ -352,8 +352,8 @@ def simulate_levels(
         One per level: channels ``A1 .. B3`` (acceleration, Z) and ``drive`` (table
         displacement, role 'drive'); metadata ``source``, ``joint``, ``level_m_s2``, ``seed``.
     """
-    from ..model.rig import Drive
-    from ..physics.nonlinear import CubicStiffening, simulate_local_nonlinear
+    from exudyn_study.linear.nonlinear import CubicStiffening, simulate_local_nonlinear
+    from exudyn_study.model.rig import Drive
 
     structure, law = joint_law(joint, structure)
     lin = linear_system(structure, force_at)

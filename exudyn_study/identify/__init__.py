@@ -25,15 +25,15 @@ name (``identify.mac(phi_a, phi_b)``), while ``identify.lsfd.Leakage`` and
 """
 
 # modules that are also their main function (callable): lsfd(...), polymax(...), mac(...)
-from . import lsfd, mac, polymax
-from .frf import FRF, estimate_frf, frf_weights
-from .lsfd import Leakage, LSFDResult, fit_modal_model, refine_poles, synthesise
-from .mac import automac, mcf, mpc
-from .model import ModalModel, Mode, read_modes_json, write_modes_json
-from .pipeline import IdentificationResult, identify, identify_frf, identify_recording
-from .polymax import Poles, modal_to_pole, pole_to_modal
-from .resolution import lines_in_half_power, resolution_warnings, suggest_resolution
-from .selection import Selection, select_modes
+from exudyn_study.identify import lsfd, mac, polymax
+from exudyn_study.identify.frf import FRF, estimate_frf, frf_weights
+from exudyn_study.identify.lsfd import Leakage, LSFDResult, fit_modal_model, refine_poles, synthesise
+from exudyn_study.identify.mac import automac, mcf, mpc
+from exudyn_study.identify.model import ModalModel, Mode, read_modes_json, write_modes_json
+from exudyn_study.identify.pipeline import IdentificationResult, identify, identify_frf, identify_recording
+from exudyn_study.identify.polymax import Poles, modal_to_pole, pole_to_modal
+from exudyn_study.identify.resolution import lines_in_half_power, resolution_warnings, suggest_resolution
+from exudyn_study.identify.selection import Selection, select_modes
 
 __all__ = [
     "FRF",

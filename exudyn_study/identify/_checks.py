@@ -4,7 +4,7 @@ from __future__ import annotations
 
 import numpy as np
 
-from ..errors import InputError
+from exudyn_study.errors import InputError
 
 
 def as_frf(frf, freq_hz) -> tuple[np.ndarray, np.ndarray]:

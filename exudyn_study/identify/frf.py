@@ -42,7 +42,7 @@ from dataclasses import dataclass
 import numpy as np
 import scipy.signal
 
-from ..errors import InputError
+from exudyn_study.errors import InputError
 
 __all__ = ["FRF", "ESTIMATORS", "estimate_frf", "segment_length", "n_averages",
            "frf_weights"]

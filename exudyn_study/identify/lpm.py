@@ -46,8 +46,8 @@ from __future__ import annotations
 
 import numpy as np
 
-from ..errors import InputError
-from .frf import FRF, _check_time
+from exudyn_study.errors import InputError
+from exudyn_study.identify.frf import FRF, _check_time
 
 __all__ = ["estimate_frf_lpm"]
 

@@ -44,9 +44,9 @@ import numpy as np
 import scipy.linalg
 import scipy.optimize
 
-from ..errors import InputError
-from ._checks import as_frf, band_mask, callable_module
-from .polymax import modal_to_pole, pole_to_modal
+from exudyn_study.errors import InputError
+from exudyn_study.identify._checks import as_frf, band_mask, callable_module
+from exudyn_study.identify.polymax import modal_to_pole, pole_to_modal
 
 __all__ = [
     "FRF_FORMS", "Leakage", "LSFDResult", "lsfd", "refine_poles", "synthesise",

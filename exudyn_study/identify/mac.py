@@ -18,8 +18,8 @@ from __future__ import annotations
 
 import numpy as np
 
-from ..errors import InputError
-from ._checks import callable_module
+from exudyn_study.errors import InputError
+from exudyn_study.identify._checks import callable_module
 
 __all__ = ["mac", "automac", "mpc", "mcf", "mean_phase_deviation"]
 

@@ -36,7 +36,7 @@ from pathlib import Path
 
 import numpy as np
 
-from ..errors import InputError
+from exudyn_study.errors import InputError
 
 __all__ = [
     "Mode",
@@ -287,7 +287,7 @@ def write_modes_json(model: ModalModel, path: str | os.PathLike) -> Path:
     path = Path(path)
     if not path.parent.is_dir():
         raise InputError(f"modes JSON {str(path)!r}: directory {str(path.parent)!r} does not exist")
-    from ..atomic import write_text_atomic
+    from exudyn_study.infra.atomic import write_text_atomic
 
     return write_text_atomic(path, model.to_json(), "modes JSON")
 

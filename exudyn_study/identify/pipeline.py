@@ -15,14 +15,14 @@ from dataclasses import dataclass, replace
 
 import numpy as np
 
-from ..errors import InputError
-from .frf import FRF, estimate_frf, frf_weights
-from .lsfd import Leakage, LSFDResult, fit_modal_model
-from .mac import mpc
-from .model import ModalModel, Mode
-from .polymax import Poles, polymax
-from .resolution import resolution_warnings
-from .selection import Selection, select_modes
+from exudyn_study.errors import InputError
+from exudyn_study.identify.frf import FRF, estimate_frf, frf_weights
+from exudyn_study.identify.lsfd import Leakage, LSFDResult, fit_modal_model
+from exudyn_study.identify.mac import mpc
+from exudyn_study.identify.model import ModalModel, Mode
+from exudyn_study.identify.polymax import Poles, polymax
+from exudyn_study.identify.resolution import resolution_warnings
+from exudyn_study.identify.selection import Selection, select_modes
 
 __all__ = ["IdentificationResult", "identify_frf", "identify", "identify_recording",
            "DEFAULT_ORDERS"]

@@ -274,7 +274,7 @@ def plot_all(result, directory: str | os.PathLike, *,
         The files written: stabilisation.png, frf_fit.png, automac.png and
         mode_shapes.png (the last two only when modes were found).
     """
-    from .mac import automac
+    from exudyn_study.identify.mac import automac
 
     d = Path(directory)
     d.mkdir(parents=True, exist_ok=True)

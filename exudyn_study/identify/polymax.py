@@ -37,8 +37,8 @@ from dataclasses import dataclass
 import numpy as np
 import scipy.linalg
 
-from ..errors import InputError
-from ._checks import as_frf, band_mask, callable_module
+from exudyn_study.errors import InputError
+from exudyn_study.identify._checks import as_frf, band_mask, callable_module
 
 __all__ = ["Poles", "polymax", "pole_to_modal", "modal_to_pole", "STABILITY_DEFAULTS"]
 

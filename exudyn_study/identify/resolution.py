@@ -20,7 +20,7 @@ from dataclasses import dataclass
 
 import numpy as np
 
-from ..errors import InputError
+from exudyn_study.errors import InputError
 
 __all__ = ["lines_in_half_power", "ResolutionAdvice", "suggest_resolution",
            "resolution_warnings", "MIN_LINES"]

@@ -49,9 +49,9 @@ import numpy as np
 import scipy.cluster.hierarchy
 import scipy.spatial.distance
 
-from ..errors import InputError
-from .mac import mac
-from .polymax import Poles
+from exudyn_study.errors import InputError
+from exudyn_study.identify.mac import mac
+from exudyn_study.identify.polymax import Poles
 
 __all__ = ["Cluster", "Selection", "select_modes"]
 

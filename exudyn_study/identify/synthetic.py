@@ -31,9 +31,9 @@ from dataclasses import dataclass
 
 import numpy as np
 
-from ..errors import InputError
-from ..sensors import SENSORS as _SENSOR_TABLE
-from .polymax import modal_to_pole
+from exudyn_study.errors import InputError
+from exudyn_study.identify.polymax import modal_to_pole
+from exudyn_study.model.sensors import SENSORS as _SENSOR_TABLE
 
 __all__ = [
     "TABLE1_FREQUENCY_HZ",
@@ -53,7 +53,7 @@ TABLE1_DAMPING = (0.0181, 0.0146, 0.0178, 0.0218, 0.0119, 0.0547, 0.0346, 0.0119
                   0.0053)
 
 #: thesis Appendix A: (name, direction, position in whole mm, local rig coordinates), from
-#: :data:`exudyn_study.sensors.SENSORS` (the one table of the 42 accelerometers)
+#: :data:`exudyn_study.model.sensors.SENSORS` (the one table of the 42 accelerometers)
 APPENDIX_A_SENSORS = tuple(
     (s.name, s.direction, tuple(int(round(1000.0 * c)) for c in s.position_m)) for s in _SENSOR_TABLE
 )
@@ -325,7 +325,7 @@ def to_recording(system: BaseExcitedSystem, reference: np.ndarray, responses: np
     Recording
         Reference channel first (named ``system.reference``), then the responses.
     """
-    from ..recording import Recording
+    from exudyn_study.recording.types import Recording
 
     table = {s[0]: s for s in APPENDIX_A_SENSORS}
     ref_pos = tuple(np.array(table[system.reference][2]) / 1000.0) \

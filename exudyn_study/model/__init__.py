@@ -5,8 +5,9 @@
 >>> model.assemble()                                       # doctest: +SKIP
 """
 
-from .rig import Drive, RigHandles, RigParameters
-from .variants import (
+from exudyn_study.model.linearisation import linearise
+from exudyn_study.model.rig import Drive, RigHandles, RigParameters
+from exudyn_study.model.variants import (
     FORMULATIONS,
     VARIANTS,
     BushingParameters,
@@ -19,6 +20,9 @@ from .variants import (
 )
 
 __all__ = [
+    "linearise",
+    "system_modes",
+    "body_displacement_map",
     "Drive",
     "RigHandles",
     "RigParameters",

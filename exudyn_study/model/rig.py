@@ -43,7 +43,7 @@ from dataclasses import dataclass, field
 
 import numpy as np
 
-from ..errors import InputError
+from exudyn_study.errors import InputError
 
 #: interfaces of the rear foundation fixed to ground by the rig
 FOUNDATION_GROUND_INTERFACES = ("ground_left", "ground_right")
@@ -424,7 +424,7 @@ def add_rig(mbs, frame_markers: dict, frame_positions: dict, foundation, params:
     lie_group_nodes : bool
         Rigid parts on ``NodeRigidBodyRotVecLG`` nodes (constant mass matrices) instead of
         Euler parameters. With constant-matrix flexible bodies
-        (:func:`~exudyn_study.model.linear_body.add_linear_matrix_body`) every mass matrix of
+        (:func:`~exudyn_study.bodies.linear_body.add_linear_matrix_body`) every mass matrix of
         the model is then constant and Exudyn computes the system mass matrix once instead of
         in every residual evaluation. Same linearised system.
 

@@ -10,7 +10,7 @@
 
 Every variant sits on the same rig (:mod:`exudyn_study.model.rig`) with the rear
 foundation as a flexible body. Damping is a function of each body's mode frequencies
-(:mod:`exudyn_study.damping`), evaluated per body.
+(:mod:`exudyn_study.bodies.damping`), evaluated per body.
 
 The builder returns a :class:`Model`: the Exudyn ``SystemContainer``/``MainSystem``
 and named handles (bodies, interfaces, joints, rig parts, sensors, drive). Add your own
@@ -19,19 +19,19 @@ Exudyn items to ``model.mbs``, then call :meth:`Model.assemble`.
 Body formulation
 ----------------
 ``formulation='linear'`` (default) adds each flexible body as a linear CMS body
-(:mod:`exudyn_study.model.linear_body`: fixed floating frame, rigid-body modes in the
+(:mod:`exudyn_study.bodies.linear_body`: fixed floating frame, rigid-body modes in the
 basis), the linearisation of the FFRF body for small motions and several times faster to
 integrate; ``'ffrf'`` uses the full floating-frame body of
-:func:`exudyn_study.flexbody.add_flexible_body`. Both have the same linearised system.
+:func:`exudyn_study.bodies.ffrf.add_flexible_body`. Both have the same linearised system.
 
 The linear formulation has two Exudyn elements (``element``):
 
 - ``'superelement'`` (default): an ``ObjectFFRFreducedOrder`` with its frame fixed
-  (:func:`~exudyn_study.model.linear_body.add_linear_cms_body`); markers and sensors on
+  (:func:`~exudyn_study.bodies.linear_body.add_linear_cms_body`); markers and sensors on
   any mesh node (``MarkerSuperElement*``, ``SensorSuperElement``), as the physics
   entries that attach to node sets or change the body's reduced damping need;
 - ``'matrix'``: an ``ObjectGenericODE2`` with the constant mass, stiffness and damping
-  matrices (:func:`~exudyn_study.model.linear_body.add_linear_matrix_body`) in
+  matrices (:func:`~exudyn_study.bodies.linear_body.add_linear_matrix_body`) in
   coordinates whose first entries are the interface patches' small rigid motions (one
   rigid node per interface, so no constraints attach the body), and the sensors read
   from the body's coordinate accelerations; the rig's parts on Lie-group nodes (constant mass
@@ -54,11 +54,18 @@ from dataclasses import dataclass, field
 
 import numpy as np
 
-from ..damping import PerBody, damping_function
-from ..errors import InputError
-from ..sensors import SENSORS, Sensor
-from ..sensors import sensor as lookup_sensor
-from .rig import FOUNDATION_GROUND_INTERFACES, Drive, RigHandles, RigParameters, add_rig, generic_joint
+from exudyn_study.bodies.damping import PerBody, damping_function
+from exudyn_study.errors import InputError
+from exudyn_study.model.rig import (
+    FOUNDATION_GROUND_INTERFACES,
+    Drive,
+    RigHandles,
+    RigParameters,
+    add_rig,
+    generic_joint,
+)
+from exudyn_study.model.sensors import SENSORS, Sensor
+from exudyn_study.model.sensors import sensor as lookup_sensor
 
 __all__ = [
     "VARIANTS",
@@ -255,9 +262,9 @@ class Model:
     metadata : dict
         Model, damping and mesh description (goes into recordings and modes files).
     body_data : dict body name -> FlexibleBodyData
-    local_nonlinearities : list of :class:`~exudyn_study.physics.nonlinear.LocalNonlinearity`
+    local_nonlinearities : list of :class:`~exudyn_study.linear.nonlinear.LocalNonlinearity`
         Residual force elements beyond the linear items (added by physics entries;
-        simulated by ``method='linear'``, see :mod:`exudyn_study.physics.nonlinear`).
+        simulated by ``method='linear'``, see :mod:`exudyn_study.linear.nonlinear`).
     output_gains : dict sensor name -> float
         True sensitivity / stated sensitivity of a sensor (a calibration error; applied to
         the simulated channel, 1 if absent).
@@ -334,7 +341,7 @@ def model_bodies(variant: int, mesh_size="production", cache_dir=None, progress:
     InputError
         For an unknown variant.
     """
-    from ..bodies import BodySpec, flexible_body
+    from exudyn_study.bodies.spec import BodySpec, flexible_body
 
     _check_variant(variant)
     if variant in (1, 2):
@@ -375,9 +382,9 @@ def build_model(
     ----------
     variant : {1, 2, 3}
     damping : str, callable, PerBody or mapping
-        A named damping function (:data:`exudyn_study.damping.DAMPING_FUNCTIONS`), a
+        A named damping function (:data:`exudyn_study.bodies.damping.DAMPING_FUNCTIONS`), a
         function of mode frequency (Hz) returning ratios, a
-        :class:`~exudyn_study.damping.PerBody` table (Model 3: thesis Table 6), or a
+        :class:`~exudyn_study.bodies.damping.PerBody` table (Model 3: thesis Table 6), or a
         mapping body name -> any of these. Evaluated at each body's mode frequencies.
     mesh_size : {'production', 'coarse'} or float
     bushing : BushingParameters, optional
@@ -441,7 +448,7 @@ def build_model_from_bodies(
     marker_nodes : int or None
         Linear formulation: mesh nodes per interface marker (a few well-spread nodes of
         the rigid patch give the same kinematics at a fraction of the cost,
-        :func:`exudyn_study.model.linear_body.marker_node_subset`); None: whole patches.
+        :func:`exudyn_study.bodies.linear_body.marker_node_subset`); None: whole patches.
     exudyn_mesh : {'all', 'used'}
         Linear formulation: give Exudyn every mesh node ('all', the default: any node can
         carry your own markers and sensors, by its mesh index) or only the nodes the
@@ -462,8 +469,8 @@ def build_model_from_bodies(
     import exudyn as exu
     import exudyn.itemInterface as eii
 
-    from ..flexbody import add_flexible_body
-    from .linear_body import add_linear_cms_body, add_linear_matrix_body, weighted_center
+    from exudyn_study.bodies.ffrf import add_flexible_body
+    from exudyn_study.bodies.linear_body import add_linear_cms_body, add_linear_matrix_body, weighted_center
 
     _check_variant(variant)
     if formulation not in FORMULATIONS:
@@ -590,7 +597,7 @@ def _attach_sensors(mbs, handles: dict, chosen: list) -> dict:
     import exudyn as exu
     import exudyn.itemInterface as eii
 
-    from .linear_body import MatrixBodyHandle
+    from exudyn_study.bodies.linear_body import MatrixBodyHandle
 
     out = {}
     node_sensor: dict[tuple[str, int], int] = {}

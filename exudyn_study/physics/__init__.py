@@ -15,7 +15,7 @@ and the diagnosis (hypotheses) use the same catalogue; users can :func:`register
 'kg'
 """
 
-from .catalogue import (
+from exudyn_study.physics.catalogue import (
     CATALOGUE,
     Applied,
     Augmentation,
@@ -25,8 +25,8 @@ from .catalogue import (
     register,
     unregister,
 )
-from .entries import ADDED_MASS, DRIVE_LINKAGE_COMPLIANCE, REAR_SUPPORT_COMPLIANCE
-from .entries_more import (
+from exudyn_study.physics.entries import ADDED_MASS, DRIVE_LINKAGE_COMPLIANCE, REAR_SUPPORT_COMPLIANCE
+from exudyn_study.physics.entries_more import (
     BUSHING_STIFFENING,
     JOINT_FRICTION,
     JOINT_STIFFNESS,
@@ -34,7 +34,7 @@ from .entries_more import (
     SENSOR_GAIN,
     SLOSHING,
 )
-from .entries_structure import BUSHING_STIFFNESS
+from exudyn_study.physics.entries_structure import BUSHING_STIFFNESS
 
 __all__ = [
     "CATALOGUE",

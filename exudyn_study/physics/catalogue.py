@@ -21,7 +21,7 @@ from collections.abc import Callable, Mapping
 from dataclasses import dataclass, field
 from typing import Any, Protocol, runtime_checkable
 
-from ..errors import InputError
+from exudyn_study.errors import InputError
 
 __all__ = ["Parameter", "PhysicsEntry", "Augmentation", "Applied", "CATALOGUE", "register", "unregister",
            "entry"]

@@ -12,8 +12,8 @@ from __future__ import annotations
 
 import numpy as np
 
-from ..errors import InputError
-from .catalogue import Parameter, PhysicsEntry, register
+from exudyn_study.errors import InputError
+from exudyn_study.physics.catalogue import Parameter, PhysicsEntry, register
 
 __all__ = ["ADDED_MASS", "DRIVE_LINKAGE_COMPLIANCE", "REAR_SUPPORT_COMPLIANCE", "location_point"]
 

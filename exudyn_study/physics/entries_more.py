@@ -9,7 +9,7 @@
 - ``sensor_gain``: a sensor's true sensitivity differs from the stated one.
 
 The nonlinear entries add their linear tangent as Exudyn items and append
-:class:`~exudyn_study.physics.nonlinear.LocalNonlinearity` elements to
+:class:`~exudyn_study.linear.nonlinear.LocalNonlinearity` elements to
 ``model.local_nonlinearities`` (simulate with ``method='linear'``).
 
 References
@@ -23,12 +23,20 @@ from __future__ import annotations
 
 import numpy as np
 
-from ..errors import InputError
-from .catalogue import Parameter, PhysicsEntry, register
-from .nonlinear import CubicStiffening, JenkinsFriction, LocalNonlinearity
+from exudyn_study.errors import InputError
+from exudyn_study.linear.nonlinear import CubicStiffening, JenkinsFriction, LocalNonlinearity
+from exudyn_study.physics.catalogue import Parameter, PhysicsEntry, register
+from exudyn_study.physics.mesh import _node_set_marker, require_super_element
+from exudyn_study.physics.rubber import (
+    _pad_quadrants,
+    _rubber_face_nodes,
+    _rubber_faces,
+    rubber_body,
+    rubber_pad_location_check,
+)
 
 __all__ = ["JOINT_STIFFNESS", "JOINT_FRICTION", "BUSHING_STIFFENING", "SLOSHING", "TANK_WALL_MODE",
-           "MODAL_DAMPING", "SENSOR_GAIN", "component_joints", "exudyn_mesh_nodes"]
+           "MODAL_DAMPING", "SENSOR_GAIN", "component_joints"]
 
 _COMPONENTS = ("tank_left", "tank_right", "bracket_left", "bracket_right")
 _AXES = "xyz"
@@ -66,85 +74,13 @@ def _joint_markers(model, key: str) -> tuple[int, int, int, str]:
     return joint, m0, m1, str(obj["objectType"])
 
 
-def _contact_normal(model, key: str) -> int:
+def contact_normal(model, key: str) -> int:
     """Global axis (0, 1, 2) closest to the normal of the joint's contact patch (least patch extent)."""
     comp, itf = key.split(".", 1)
     body = model.bodies[comp].body
     i = body.interface_index(itf)
     x = np.asarray(body.node_positions_m)[np.asarray(body.interface_nodes[i], dtype=int)]
     return int(np.argmin(np.ptp(x, axis=0)))
-
-
-def require_super_element(handle, body_name: str, what: str) -> None:
-    """Refuse the constant-matrix body (``element='matrix'``) where an entry needs ``what``.
-
-    That element has no mesh nodes and no reduced damping matrix of its own (see
-    :func:`exudyn_study.model.linear_body.add_linear_matrix_body`).
-    """
-    from ..model.linear_body import MatrixBodyHandle
-
-    if isinstance(handle, MatrixBodyHandle):
-        raise InputError(f"body {body_name!r} is a constant-matrix element (element='matrix'), which has no "
-                         f"{what}: build the model with element='superelement' for this entry")
-
-
-def exudyn_mesh_nodes(model, body_name: str, nodes) -> list[int]:
-    """Exudyn node indices of mesh ``nodes`` of a flexible body, adding them to the body if needed.
-
-    A linear CMS body built with ``exudyn_mesh='used'`` carries only the nodes its markers and
-    sensors use (``handle.mesh_node_map``); missing nodes are appended to its
-    ``referencePositions`` and ``modeBasis`` (rigid-body modes and flexible modes at those
-    nodes), which leaves the existing markers, sensors and the linearised system unchanged.
-    Call before assembly.
-    """
-    handle = model.bodies[body_name]
-    require_super_element(handle, body_name, "markers on mesh nodes")
-    nodes = [int(n) for n in nodes]
-    node_map = handle.__dict__.get("mesh_node_map")
-    if node_map is None:
-        return nodes
-    missing = [n for n in dict.fromkeys(nodes) if n not in node_map]
-    if missing:
-        from ..model.linear_body import node_modal_map
-
-        mbs, obj = model.mbs, handle.object_number
-        data = model.body_data[body_name]
-        extra = node_modal_map(data.body, data.ffrf, missing)
-        basis = np.vstack([np.asarray(mbs.GetObjectParameter(obj, "modeBasis")), extra])
-        ref = np.concatenate([np.asarray(mbs.GetObjectParameter(obj, "referencePositions")).ravel(),
-                              np.asarray(data.body.node_positions_m)[missing].ravel()])
-        mbs.SetObjectParameter(obj, "modeBasis", basis)
-        mbs.SetObjectParameter(obj, "referencePositions", ref)
-        start = len(node_map)
-        for j, n in enumerate(missing):
-            node_map[n] = start + j
-    return [node_map[n] for n in nodes]
-
-
-def _spread(x: np.ndarray, count: int) -> np.ndarray:
-    """Return the indices of ``count`` well-spread points of ``x`` (farthest-point sampling)."""
-    order = [int(np.argmax(np.linalg.norm(x - x.mean(axis=0), axis=1)))]
-    dmin = np.linalg.norm(x - x[order[0]], axis=1)
-    while len(order) < min(count, x.shape[0]):
-        k = int(np.argmax(dmin))
-        order.append(k)
-        dmin = np.minimum(dmin, np.linalg.norm(x - x[k], axis=1))
-    return np.asarray(order)
-
-
-def _node_set_marker(model, body_name: str, nodes, rigid: bool) -> tuple[int, np.ndarray]:
-    """Add a marker averaging mesh ``nodes`` (equal weights); return it and their mean global position."""
-    import exudyn.itemInterface as eii
-
-    handle = model.bodies[body_name]
-    nodes = np.asarray(nodes, dtype=int)
-    local = exudyn_mesh_nodes(model, body_name, nodes)
-    w = [1.0 / nodes.size] * nodes.size
-    kind = eii.MarkerSuperElementRigid if rigid else eii.MarkerSuperElementPosition
-    marker = model.mbs.AddMarker(kind(bodyNumber=handle.object_number, meshNodeNumbers=local,
-                                      weightingFactors=w))
-    pos = np.asarray(handle.body.node_positions_m)[nodes].mean(axis=0) + np.asarray(handle.position_m)
-    return int(marker), pos
 
 
 # --------------------------------------------------------------------------------------- joint_stiffness
@@ -158,7 +94,7 @@ def _mid_point_markers(model, m0: int, m1: int) -> tuple[int, int, list[float]]:
     -------
     (marker 0, marker 1, offset [dx, dy, dz, 0, 0, 0])
     """
-    from ..model.variants import unloaded_joint_markers
+    from exudyn_study.model.variants import unloaded_joint_markers
 
     positions = {int(h.marker): np.asarray(h.position_m, dtype=float) for h in model.interfaces.values()}
     if m0 not in positions or m1 not in positions:
@@ -253,7 +189,7 @@ def _add_joint_friction(model, location: str, params: dict) -> dict:
     if "JointGeneric" not in kind:
         raise InputError(f"joint_friction: joint {location!r} is a {kind}, not a fixed joint; build model 3 "
                          "without bushings")
-    normal = _contact_normal(model, location)
+    normal = contact_normal(model, location)
     tangential = [a for a in range(3) if a != normal]
     axes = [1] * 6
     for a in tangential:
@@ -303,74 +239,8 @@ relative amplitude ``a > F / k``. Sine responses show a softening, flattened res
 ))
 
 
-# --------------------------------------------------------------------------------------- bushing_stiffening
-_RUBBER_REGION = "bracket_left_rubber"
-
-
-def _rubber_body(model) -> str | None:
-    for name, handle in model.bodies.items():
-        if _RUBBER_REGION in handle.body.region_nodes:
-            return name
-    return None
-
-
-def rubber_pad_location_check(entry_name: str):
-    """Return the ``check_location`` of an entry acting on the left bracket's rubber pad (the only one)."""
-
-    def check(model, location):
-        if location not in (None, "bracket_left"):
-            raise InputError(f"{entry_name}: location {location!r}; expected None or 'bracket_left' "
-                             "(the left mudguard bracket carries the only rubber bushing)")
-        if _rubber_body(model) is None:
-            raise InputError(f"{entry_name}: no body of this model has the rubber region "
-                             f"{_RUBBER_REGION!r}; bodies {sorted(model.bodies)}")
-        return "bracket_left"
-
-    return check
-
-
-def _rubber_face_nodes(body) -> tuple[np.ndarray, np.ndarray, int]:
-    """All nodes of the rubber pad's frame-side and bracket-side faces, and the pad normal's axis (``y``).
-
-    The faces of :func:`~exudyn_study.physics.entries_structure.rubber_pad` (one definition of the
-    pad's geometry for its linear spring and its hardening).
-    """
-    from .entries_structure import rubber_pad
-
-    pad = rubber_pad(body, _RUBBER_REGION)
-    return pad["inner"], pad["outer"], pad["normal"]
-
-
-def _rubber_faces(body, count: int = 8) -> tuple[np.ndarray, np.ndarray]:
-    """Well-spread nodes of the rubber pad's frame-side and bracket-side faces (pad normal: ``y``)."""
-    inner, outer, _ = _rubber_face_nodes(body)
-    pick = [f[_spread(np.asarray(body.node_positions_m)[f], count)] for f in (inner, outer)]
-    return pick[0], pick[1]
-
-
-def _pad_quadrants(body, face: np.ndarray, normal: int, count: int) -> list[np.ndarray]:
-    """Split a pad face's nodes into its four quadrants (about the face centre, in the face plane).
-
-    ``normal``: the axis of the pad's normal. Returns ``count`` well-spread nodes of each
-    quadrant, in the order (-,-), (-,+), (+,-), (+,+) of the two in-plane axes.
-    """
-    x = np.asarray(body.node_positions_m)[face]
-    a, b = [k for k in range(3) if k != normal]
-    centre = x.mean(axis=0)
-    out = []
-    for sa in (False, True):
-        for sb in (False, True):
-            sel = face[((x[:, a] > centre[a]) == sa) & ((x[:, b] > centre[b]) == sb)]
-            if sel.size == 0:
-                raise InputError(f"bushing_stiffening: the rubber pad's face has no nodes in one quadrant "
-                                 f"({face.size} face nodes); the pad mesh is too coarse for the compression "
-                                 "term")
-            out.append(sel[_spread(np.asarray(body.node_positions_m)[sel], count)])
-    return out
-
-
 def _add_bushing_stiffening(model, location, params: dict) -> dict:
-    body_name = _rubber_body(model)
+    body_name = rubber_body(model)
     body = model.bodies[body_name].body
     added = {}
     k3 = params["cubic_stiffness_n_per_m3"]
@@ -645,7 +515,7 @@ def _check_body_location(model, location):
 def _add_modal_damping(model, location: str, params: dict) -> dict:
     import exudyn as exu
 
-    from ..flexbody import modal_damping_matrix
+    from exudyn_study.bodies.ffrf import modal_damping_matrix
 
     lo, hi = params["min_frequency_hz"], params["max_frequency_hz"]
     if lo > hi:

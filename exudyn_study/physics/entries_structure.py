@@ -14,71 +14,18 @@ from __future__ import annotations
 
 import numpy as np
 
-from ..errors import InputError
-from ..materials import MATERIALS
-from .catalogue import Parameter, PhysicsEntry, register
-from .entries_more import _RUBBER_REGION, _rubber_body, exudyn_mesh_nodes, rubber_pad_location_check
+from exudyn_study.bodies.materials import MATERIALS
+from exudyn_study.errors import InputError
+from exudyn_study.physics.catalogue import Parameter, PhysicsEntry, register
+from exudyn_study.physics.mesh import exudyn_mesh_nodes
+from exudyn_study.physics.rubber import (
+    pad_spring_matrix,
+    rubber_body,
+    rubber_pad,
+    rubber_pad_location_check,
+)
 
 __all__ = ["BUSHING_STIFFNESS", "rubber_pad", "pad_spring_matrix"]
-
-
-def rubber_pad(body, region: str = _RUBBER_REGION) -> dict:
-    """Geometry of a flat bonded rubber pad (a mesh region of a reduced body).
-
-    Parameters
-    ----------
-    body : exudyn_study.reduction.ReducedBody
-    region : str
-        Mesh region of the pad (its thinnest extent is the pad's thickness).
-
-    Returns
-    -------
-    dict
-        ``normal`` (axis 0/1/2 of the thickness), ``thickness_m``, ``extent_m`` (ndarray (3,),
-        the pad's bounding box, m), ``area_m2`` (bonded area, the in-plane extents' product),
-        ``centre_m`` (ndarray (3,), body coordinates), ``inner`` and ``outer`` (mesh nodes of the
-        face nearer to and farther from the body's ``y = 0`` plane along the normal).
-    """
-    nodes = np.asarray(body.region_nodes[region], dtype=int)
-    x = np.asarray(body.node_positions_m)[nodes]
-    extent = np.ptp(x, axis=0)
-    normal = int(np.argmin(extent))
-    depth = np.abs(x[:, normal])
-    tol = 1e-3 * float(extent.max()) + 1e-9
-    inner = nodes[depth <= depth.min() + tol]
-    outer = nodes[depth >= depth.max() - tol]
-    plane = [a for a in range(3) if a != normal]
-    return {"normal": normal, "thickness_m": float(extent[normal]), "extent_m": extent,
-            "area_m2": float(extent[plane[0]] * extent[plane[1]]),
-            "centre_m": 0.5 * (x.min(axis=0) + x.max(axis=0)), "inner": inner, "outer": outer}
-
-
-def pad_spring_matrix(pad: dict, shear_modulus_pa: float, compression_modulus_pa: float,
-                      rocking_factors=(1.0, 1.0, 1.0), torsion_modulus_change_pa: float = 0.0) -> np.ndarray:
-    """6 x 6 stiffness (N/m, N m/rad; translations then rotations about x, y, z) of a bonded pad.
-
-    A thin block of thickness ``t`` and in-plane sides ``a``, ``b`` bonded between two rigid
-    plates (Gent 2012, Ch. 9): shear ``G A / t`` along both in-plane axes, compression
-    ``E_c A / t`` along the normal, torsion about the normal ``G J / t`` with
-    ``J = A (a^2 + b^2) / 12`` and rocking about an in-plane axis ``E_c I / t`` with ``I`` the
-    area's second moment about that axis (``A s^2 / 12``, ``s`` the side across it), times
-    ``rocking_factors[axis]`` (the rocking modulus over the compression modulus about global
-    x, y, z; the normal's entry is unused). The torsion uses ``shear_modulus_pa +
-    torsion_modulus_change_pa`` (default: the shear modulus).
-    """
-    n, t, area = pad["normal"], pad["thickness_m"], pad["area_m2"]
-    ext = np.asarray(pad["extent_m"], dtype=float)
-    k = np.zeros(6)
-    for axis in range(3):
-        if axis == n:
-            k[axis] = compression_modulus_pa * area / t
-            torsion = shear_modulus_pa + torsion_modulus_change_pa
-            k[3 + axis] = torsion * area * (np.sum(ext**2) - ext[n] ** 2) / 12.0 / t
-        else:
-            across = 3 - n - axis  # the in-plane side perpendicular to this rocking axis
-            k[axis] = shear_modulus_pa * area / t
-            k[3 + axis] = rocking_factors[axis] * compression_modulus_pa * area * ext[across] ** 2 / 12.0 / t
-    return np.diag(k)
 
 
 def _face_marker(model, body_name: str, nodes, centre_m) -> int:
@@ -99,7 +46,7 @@ def _face_marker(model, body_name: str, nodes, centre_m) -> int:
 def _add_bushing_stiffness(model, location, params: dict) -> dict:
     import exudyn.itemInterface as eii
 
-    body_name = _rubber_body(model)
+    body_name = rubber_body(model)
     pad = rubber_pad(model.bodies[body_name].body)
     m_frame = _face_marker(model, body_name, pad["inner"], pad["centre_m"])
     m_bracket = _face_marker(model, body_name, pad["outer"], pad["centre_m"])

@@ -8,9 +8,9 @@
 - :mod:`.cli`: the ``exudyn-study sweep`` subcommand.
 """
 
-from .config import Point, SweepConfig, expand_points, load_config, parse_config
-from .engine import SweepResult, run_sweep
-from .tasks import TASKS, Parameter, Task, get_task, register_task
+from exudyn_study.sweep.config import Point, SweepConfig, expand_points, load_config, parse_config
+from exudyn_study.sweep.engine import SweepResult, run_sweep
+from exudyn_study.sweep.tasks import TASKS, Parameter, Task, get_task, register_task
 
 __all__ = [
     "Point",

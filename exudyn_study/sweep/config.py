@@ -51,8 +51,8 @@ from urllib.parse import urlsplit
 
 import numpy as np
 
-from ..errors import InputError
-from .tasks import TASKS, Task, TaskRegistry
+from exudyn_study.errors import InputError
+from exudyn_study.sweep.tasks import TASKS, Task, TaskRegistry
 
 if sys.version_info >= (3, 11):
     import tomllib

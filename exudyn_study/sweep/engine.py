@@ -50,9 +50,9 @@ from multiprocessing import get_context
 from pathlib import Path
 from typing import Any
 
-from ..errors import InputError
-from .config import Point, SweepConfig, check_scheduler, expand_points
-from .tasks import Task, TaskRegistry, get_task
+from exudyn_study.errors import InputError
+from exudyn_study.sweep.config import Point, SweepConfig, check_scheduler, expand_points
+from exudyn_study.sweep.tasks import Task, TaskRegistry, get_task
 
 __all__ = ["SweepResult", "run_sweep", "run_point", "read_rows", "summary_table", "BASE_COLUMNS"]
 
@@ -128,7 +128,7 @@ def run_point(function: Callable[..., Mapping[str, Any]], params: Mapping[str, A
     dict
         The row (see the module notes).
     """
-    from .. import __version__
+    from exudyn_study import __version__
 
     row: dict[str, Any] = {"point_id": point_id, "index": index, **params, "seed": seed,
                            "version": __version__, "status": "ok", "error": "", "wall_s": math.nan,
@@ -283,7 +283,7 @@ def _single_threaded_workers():
 
 
 def _failed_row(p: Point, message: str) -> dict:
-    from .. import __version__
+    from exudyn_study import __version__
 
     return {"point_id": p.key, "index": p.index, **p.params, "seed": p.seed, "version": __version__,
             "status": "failed", "error": message, "wall_s": math.nan, "worker": ""}

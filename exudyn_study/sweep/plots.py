@@ -17,9 +17,9 @@ from typing import Any
 
 import numpy as np
 
-from ..errors import InputError
-from .config import SweepConfig
-from .tasks import Task
+from exudyn_study.errors import InputError
+from exudyn_study.sweep.config import SweepConfig
+from exudyn_study.sweep.tasks import Task
 
 __all__ = ["plot_sweep", "save_sweep_plot", "family_columns"]
 

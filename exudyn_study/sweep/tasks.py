@@ -35,7 +35,7 @@ from typing import Any
 
 import numpy as np
 
-from ..errors import InputError
+from exudyn_study.errors import InputError
 
 __all__ = [
     "Parameter",
@@ -354,8 +354,8 @@ def _mesh_size(value: Any) -> Any:
 
 
 def _body_spec(p: Mapping[str, Any]):
-    from ..bodies import BodySpec
-    from ..reduction import ReductionSettings
+    from exudyn_study.bodies.reduction import ReductionSettings
+    from exudyn_study.bodies.spec import BodySpec
 
     return BodySpec(
         kind=p["kind"],
@@ -368,7 +368,7 @@ def _body_spec(p: Mapping[str, Any]):
 
 
 def _build_body(spec, cache_dir: str) -> None:
-    from ..bodies import flexible_body
+    from exudyn_study.bodies.spec import flexible_body
 
     flexible_body(spec, cache_dir=cache_dir or None)
 
@@ -407,7 +407,7 @@ def body_frequencies(*, seed: int, kind: str = "chassis", joint_model: str = "si
         ``f.01 .. f.NN`` in Hz (nan past the last mode), ``n_modes_total``,
         ``total_mass_kg``, ``from_cache``.
     """
-    from ..bodies import flexible_body
+    from exudyn_study.bodies.spec import flexible_body
 
     params = dict(kind=kind, joint_model=joint_model, component=component, mesh_size=mesh_size,
                   water_mass_per_tank_kg=water_mass_per_tank_kg, max_frequency_hz=max_frequency_hz)
@@ -458,7 +458,7 @@ MODELS = ("modal-table1",) + RIG_MODELS
 
 def _damping_ratios(frequency_hz: np.ndarray, identified: np.ndarray, damping: str, ratio: float,
                     step: tuple[float, float, float, float]) -> np.ndarray:
-    from .. import damping as dmp
+    from exudyn_study.bodies import damping as dmp
 
     if damping == "adams-default":
         return dmp.adams_default(frequency_hz)
@@ -497,7 +497,7 @@ def damping_sensitivity(*, seed: int, model: str = "modal-table1", signal: str =
     state. The "measured" responses use the identified damping of Table 1; the
     "simulated" ones use the damping function applied to the same mode frequencies,
     times ``damping_scale``. Relative pseudo damage is ``D_sim / D_meas`` per z channel
-    (:func:`exudyn_study.fatigue.pseudo_damage`, rainflow + Basquin, ``beta``).
+    (:func:`exudyn_study.signals.fatigue.pseudo_damage`, rainflow + Basquin, ``beta``).
 
     The thesis applies the damping functions to the *flexible-body* modes; here they act
     on the *system* modes directly, which keeps the trend (Adams default: too little
@@ -530,10 +530,10 @@ def damping_sensitivity(*, seed: int, model: str = "modal-table1", signal: str =
         ``rpd.<sensor>`` per z channel, ``rpd_mean`` (geometric mean), ``rpd_min``,
         ``rpd_max``, ``zeta_mean`` (mean applied ratio).
     """
-    from ..damping import MAX_RATIO
-    from ..fatigue import pseudo_damage
-    from ..identify.synthetic import BaseExcitedSystem, table1_system
-    from ..signals import drive_signal
+    from exudyn_study.bodies.damping import MAX_RATIO
+    from exudyn_study.identify.synthetic import BaseExcitedSystem, table1_system
+    from exudyn_study.signals.drives import drive_signal
+    from exudyn_study.signals.fatigue import pseudo_damage
 
     if model in RIG_MODELS:
         return _rig_damping_sensitivity(model, signal, damping, damping_scale, ratio,
@@ -569,9 +569,10 @@ def damping_sensitivity(*, seed: int, model: str = "modal-table1", signal: str =
 
 def _virtual_measurement(scenario_name: str, signal: str, seed: int, duration_s: float):
     """Return the virtual rig's recording of ``scenario_name`` (cached on disk, written atomically)."""
-    from ..cache import cache_dir
-    from ..recording import read_recording, write_recording
-    from ..virtual_rig import scenario, virtual_recording
+    from exudyn_study.infra.cache import cache_dir
+    from exudyn_study.recording.io import read_recording, write_recording
+    from exudyn_study.virtual_rig import scenario
+    from exudyn_study.virtual_rig.run import virtual_recording
 
     sc = scenario(scenario_name).with_seed(seed)
     folder = cache_dir() / "virtual"
@@ -586,10 +587,10 @@ def _virtual_measurement(scenario_name: str, signal: str, seed: int, duration_s:
 
 def _rig_damping_sensitivity(model, signal, damping, damping_scale, ratio, step, duration_s, seed, beta,
                              measured_scenario):
-    from ..damping import MAX_RATIO, THESIS_TABLE6, PerBody
-    from ..fatigue import pseudo_damage
-    from ..model import build_model
-    from ..simulate import simulate
+    from exudyn_study.bodies.damping import MAX_RATIO, THESIS_TABLE6, PerBody
+    from exudyn_study.model import build_model
+    from exudyn_study.signals.fatigue import pseudo_damage
+    from exudyn_study.simulate.run import simulate
 
     variant = int(model[-1])
     if damping == "calibrated":
@@ -625,7 +626,7 @@ def _rig_damping_sensitivity(model, signal, damping, damping_scale, ratio, step,
 
 
 def _signal_names() -> tuple[str, ...]:
-    from ..signals import SIGNALS
+    from exudyn_study.signals.drives import SIGNALS
 
     return tuple(SIGNALS)
 

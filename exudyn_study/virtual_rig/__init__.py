@@ -5,7 +5,7 @@
 True
 """
 
-from .run import (
+from exudyn_study.virtual_rig.run import (
     DEFAULT_DURATION_S,
     build_truth,
     recording_name,
@@ -13,12 +13,10 @@ from .run import (
     truth_name,
     virtual_recording,
 )
-from .scenarios import (
+from exudyn_study.virtual_rig.scenario import THESIS_TABLE1, Augment, Scenario
+from exudyn_study.virtual_rig.scenarios import (
     BLIND_EFFECTS,
     SCENARIOS,
-    THESIS_TABLE1,
-    Augment,
-    Scenario,
     random_scenario,
     register_scenario,
     scenario,

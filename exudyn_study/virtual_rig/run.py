@@ -4,11 +4,11 @@
 
 1. the commanded drive (:mod:`exudyn_study.signals`, the scenario's seed and rms times ``level``);
 2. the achieved piston displacement: the command through the servo drive
-   (:func:`~exudyn_study.measurement.servo_response`, drop-offs near 12 and 26 Hz, tracking error);
+   (:func:`~exudyn_study.virtual_rig.measurement.servo_response`, drop-offs near 12 and 26 Hz, tracking error);
 3. the truth model: the scenario's nominal variant with its augmentations applied
    (:func:`build_truth`), simulated with the achieved drive (linear model + local
    nonlinearities, exact between sub-steps);
-4. the acquisition chain (:func:`~exudyn_study.measurement.measure`: noise, sensitivity,
+4. the acquisition chain (:func:`~exudyn_study.virtual_rig.measurement.measure`: noise, sensitivity,
    anti-alias filter at 4x oversampling, quantisation) and the drive channel as the
    controller records it (204.8 Hz).
 
@@ -26,8 +26,9 @@ import math
 import time
 from pathlib import Path
 
-from ..errors import InputError
-from .scenarios import Scenario, scenario
+from exudyn_study.errors import InputError
+from exudyn_study.virtual_rig.scenario import Scenario
+from exudyn_study.virtual_rig.scenarios import scenario
 
 __all__ = [
     "build_truth",
@@ -56,9 +57,9 @@ def build_truth(sc: Scenario, bodies=None, sensors=None, cache_dir=None):
     sensors : sequence of str, optional
         Sensors to attach (default all 42).
     """
-    from ..model import BushingParameters, build_model, build_model_from_bodies
-    from ..physics import entry
-    from ..rig_cli import parse_damping
+    from exudyn_study.bodies.damping import parse_damping
+    from exudyn_study.model import BushingParameters, build_model, build_model_from_bodies
+    from exudyn_study.physics.catalogue import entry
 
     sc.validate()
     damping = parse_damping(sc.damping)
@@ -109,9 +110,10 @@ def virtual_recording(
     -------
     Recording
     """
-    from ..measurement import measure, servo_response
-    from ..signals import SIGNALS, drive_signal
-    from ..simulate import OUTPUT_RATE_HZ, simulate
+    from exudyn_study.signals.drives import SIGNALS, drive_signal
+    from exudyn_study.simulate.drive import OUTPUT_RATE_HZ
+    from exudyn_study.simulate.run import simulate
+    from exudyn_study.virtual_rig.measurement import measure, servo_response
 
     sc = scenario(sc) if isinstance(sc, str) else sc
     if signal not in SIGNALS:
@@ -128,7 +130,7 @@ def virtual_recording(
     achieved = servo_response(command, OUTPUT_RATE_HZ, sc.servo)
     ideal = simulate(model, achieved, method="linear", drive_rate_hz=OUTPUT_RATE_HZ, seed=sc.seed)
     measured = measure(ideal, sc.acquisition)
-    from ..recording import Recording
+    from exudyn_study.recording.types import Recording
 
     meta = {
         "source": "virtual-rig",
@@ -155,7 +157,7 @@ def truth_name(sc_name: str) -> str:
 
 
 def _write_json_atomic(data: dict, path: Path) -> None:
-    from ..atomic import write_text_atomic
+    from exudyn_study.infra.atomic import write_text_atomic
 
     write_text_atomic(path, json.dumps(data, indent=2, sort_keys=True), "truth file")
 
@@ -182,7 +184,7 @@ def run_virtual_test(
     InputError
         Unknown scenario or signal, a missing output directory, bad parameters.
     """
-    from ..recording import write_recording
+    from exudyn_study.recording.io import write_recording
 
     sc = scenario(sc) if isinstance(sc, str) else sc
     out = Path(out_dir)

@@ -3,7 +3,7 @@
 A :class:`Scenario` says what the virtual rig's *truth* is: a nominal model variant with
 its damping, the physics augmentations of the catalogue (:mod:`exudyn_study.physics`)
 applied to it, and the measurement chain (servo drive and acquisition,
-:mod:`exudyn_study.measurement`). The registry :data:`SCENARIOS` holds:
+:mod:`exudyn_study.virtual_rig.measurement`). The registry :data:`SCENARIOS` holds:
 
 ``none``
     truth = nominal Model 1 + measurement chain only (nothing is missing);
@@ -25,134 +25,26 @@ effect.
 
 from __future__ import annotations
 
-import dataclasses
 import math
 from collections.abc import Mapping
-from dataclasses import dataclass, field
 
 import numpy as np
 
-from ..errors import InputError
-from ..measurement import AcquisitionParameters, ServoParameters
+from exudyn_study.errors import InputError
+from exudyn_study.virtual_rig.scenario import Augment, Scenario
+from exudyn_study.virtual_rig.thesis import (
+    THESIS_DRY_SCENARIO,
+    THESIS_ISO_SCENARIO,
+    THESIS_SCENARIO,
+)
 
 __all__ = [
-    "Augment",
-    "Scenario",
     "SCENARIOS",
     "scenario",
     "register_scenario",
     "random_scenario",
-    "THESIS_TABLE1",
     "BLIND_EFFECTS",
 ]
-
-#: thesis Table 1: (undamped natural frequency Hz, damping ratio, description)
-THESIS_TABLE1 = (
-    (12.05, 0.0181, "right fuel tank z"),
-    (13.21, 0.0146, "both fuel tanks z"),
-    (14.15, 0.0178, "left fuel tank z"),
-    (15.00, 0.0218, "left mudguard bracket z"),
-    (21.21, 0.0119, "frame bending about z"),
-    (32.69, 0.0547, "left mudguard bracket x and z"),
-    (36.64, 0.0346, "left mudguard bracket x and z"),
-    (41.37, 0.0119, "frame bending about y"),
-    (43.84, 0.0209, "frame bending about y"),
-    (47.60, 0.0053, "right mudguard bracket z"),
-)
-
-
-@dataclass(frozen=True)
-class Augment:
-    """One catalogue entry applied at a location with parameters (SI, the entry's units)."""
-
-    physics: str
-    location: str | None = None
-    parameters: Mapping[str, float] = field(default_factory=dict)
-
-    def as_dict(self) -> dict:
-        return {
-            "physics": self.physics,
-            "location": self.location,
-            "parameters": {k: float(v) for k, v in self.parameters.items()},
-        }
-
-
-@dataclass(frozen=True)
-class Scenario:
-    """A truth configuration of the virtual rig.
-
-    Parameters
-    ----------
-    name : str
-    description : str
-        What the truth contains and why (one paragraph).
-    variant : {1, 2, 3}
-        Nominal model the truth starts from.
-    damping : str
-        Damping function name (:data:`exudyn_study.damping.DAMPING_FUNCTIONS`, or 'table6').
-    augmentations : tuple of Augment
-    servo : ServoParameters
-    acquisition : AcquisitionParameters
-    seed : int
-        Seeds the drive signal, the servo tracking error and the sensor noise.
-    rms_m : float
-        Drive rms at level 1 (m).
-    bushing : bool
-        Model 3: 6-DOF bushings instead of fixed joints in the nominal model.
-    """
-
-    name: str
-    description: str
-    variant: int = 1
-    damping: str = "adams-default"
-    augmentations: tuple = ()
-    servo: ServoParameters = ServoParameters()
-    acquisition: AcquisitionParameters = AcquisitionParameters()
-    seed: int = 0
-    rms_m: float = 0.25e-3
-    bushing: bool = False
-
-    def __post_init__(self) -> None:
-        if self.variant not in (1, 2, 3):
-            raise InputError(f"scenario {self.name!r}: variant {self.variant!r}; expected 1, 2 or 3")
-        if not (math.isfinite(self.rms_m) and 0 < self.rms_m <= 5e-3):
-            raise InputError(f"scenario {self.name!r}: rms_m {self.rms_m!r}; expected (0, 5e-3] m")
-        object.__setattr__(
-            self,
-            "augmentations",
-            tuple(a if isinstance(a, Augment) else Augment(**a) for a in self.augmentations),
-        )
-
-    def validate(self) -> None:
-        """Check every augmentation's entry, parameters and bounds (InputError naming the first bad one)."""
-        from ..physics import entry
-
-        for a in self.augmentations:
-            entry(a.physics).resolve(**dict(a.parameters))
-
-    def with_seed(self, seed: int) -> Scenario:
-        """The same truth with another seed (drive, servo and sensor noise)."""
-        return dataclasses.replace(
-            self,
-            seed=int(seed),
-            servo=dataclasses.replace(self.servo, seed=int(seed)),
-            acquisition=dataclasses.replace(self.acquisition, seed=int(seed)),
-        )
-
-    def truth(self) -> dict:
-        """JSON-able description of the truth (the file the rest of the tool never reads)."""
-        return {
-            "scenario": self.name,
-            "description": self.description,
-            "variant": self.variant,
-            "damping": self.damping,
-            "bushing": self.bushing,
-            "seed": self.seed,
-            "rms_m": self.rms_m,
-            "augmentations": [a.as_dict() for a in self.augmentations],
-            "servo": dataclasses.asdict(self.servo),
-            "acquisition": dataclasses.asdict(self.acquisition),
-        }
 
 
 _SCENARIOS: dict[str, Scenario] = {}
@@ -273,11 +165,6 @@ for _name, _loc, _params, _variant, _text in _SINGLE:
         )
     )
 
-from .thesis import (  # noqa: E402  (own module: tuned against Table 1)
-    THESIS_DRY_SCENARIO,
-    THESIS_ISO_SCENARIO,
-    THESIS_SCENARIO,
-)
 
 register_scenario(THESIS_SCENARIO)
 register_scenario(THESIS_ISO_SCENARIO)
@@ -304,7 +191,7 @@ def random_scenario(index: int, effect: str | None = None, rng_seed: int = 2026)
         Force the effect ('none' for a scenario without one); default: drawn from
         :data:`BLIND_EFFECTS`.
     """
-    from ..physics import entry
+    from exudyn_study.physics.catalogue import entry
 
     rng = np.random.default_rng([rng_seed, int(index)])
     names = sorted(BLIND_EFFECTS)

@@ -134,8 +134,8 @@ from __future__ import annotations
 
 import numpy as np
 
-from ..errors import InputError
-from .scenarios import THESIS_TABLE1, Augment, Scenario
+from exudyn_study.errors import InputError
+from exudyn_study.virtual_rig.scenario import THESIS_TABLE1, Augment, Scenario
 
 __all__ = [
     "THESIS_SCENARIO",
@@ -512,14 +512,14 @@ def references_held(lin, references=EMA_REFERENCES):
 
     Parameters
     ----------
-    lin : exudyn_study.modal.LinearSystem
+    lin : exudyn_study.linear.modes.LinearSystem
     references : sequence of str
         Sensor names of ``lin`` (their measuring direction is held).
 
     Returns
     -------
-    exudyn_study.modal.LinearSystem
-        For :func:`exudyn_study.modal.system_modes`.
+    exudyn_study.linear.modes.LinearSystem
+        For :func:`exudyn_study.linear.modes.system_modes`.
 
     Raises
     ------

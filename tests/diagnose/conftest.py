@@ -14,8 +14,8 @@ def model3():
     pytest.importorskip("exudyn")
     from rig_fixtures import MODEL3_SENSORS, mini_model3_bodies
 
+    from exudyn_study.bodies.damping import parse_damping
     from exudyn_study.model import build_model_from_bodies
-    from exudyn_study.rig_cli import parse_damping
 
     bodies = mini_model3_bodies()
 

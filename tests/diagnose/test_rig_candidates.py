@@ -226,8 +226,9 @@ def test_connector_candidate_equals_the_model_with_the_entry_applied(model3, phy
     time), so the same FRFs; and the entry really changes the system."""
     from exudyn_study.diagnose import rig_candidates
     from exudyn_study.diagnose.rig_hypotheses import ConnectorHypothesis, model_system
+    from exudyn_study.linear.response import frf_linear
+    from exudyn_study.linear.system import state_space
     from exudyn_study.physics import entry
-    from exudyn_study.simulate import _state_space, frf_linear
 
     key, start, values = CONNECTORS[physics]
     basis = {"basis": getattr(rig_candidates, BASES[physics])} if physics in BASES else {}
@@ -266,7 +267,7 @@ def test_connector_candidate_equals_the_model_with_the_entry_applied(model3, phy
     got = h.system([values[n] for n in h.names])
 
     def modes(system):
-        lam = np.linalg.eigvals(_state_space(system)[0])
+        lam = np.linalg.eigvals(state_space(system)[0])
         lam = lam[(lam.imag > 0) & (np.abs(lam) < 2 * np.pi * 200)]
         order = np.argsort(np.abs(lam))
         return np.abs(lam[order]) / (2 * np.pi), -lam.real[order] / np.abs(lam[order])
@@ -289,8 +290,9 @@ def test_sloshing_candidate_equals_the_model_with_the_water_at_other_values(mode
     response of the tank's horizontal sensors."""
     from exudyn_study.diagnose.rig_candidates import SLOSH_FREQUENCY_HZ, SLOSH_START
     from exudyn_study.diagnose.rig_hypotheses import SloshingHypothesis, model_system
+    from exudyn_study.linear.response import frf_linear
+    from exudyn_study.linear.system import state_space
     from exudyn_study.physics import entry
-    from exudyn_study.simulate import _state_space, frf_linear
 
     h = SloshingHypothesis("tank_left", entry("sloshing"), model3, SLOSH_FREQUENCY_HZ, dict(SLOSH_START))
     values = {"slosh_mass_kg": 120.0, "slosh_damping_ratio": 0.9, "lateral_damping_factor": 0.4}
@@ -300,7 +302,7 @@ def test_sloshing_candidate_equals_the_model_with_the_water_at_other_values(mode
     ref = _fresh(model3, "sloshing", "tank_left", carried[2])
     got = h.system([values[n] for n in h.names])
     np.testing.assert_allclose(got.mass, ref.mass, rtol=0, atol=1e-9 * np.abs(ref.mass).max())
-    lam_got, lam_ref = (np.sort_complex(np.linalg.eigvals(_state_space(s)[0])) for s in (got, ref))
+    lam_got, lam_ref = (np.sort_complex(np.linalg.eigvals(state_space(s)[0])) for s in (got, ref))
     low = np.abs(lam_ref) < 2 * np.pi * 200
     np.testing.assert_allclose(lam_got[low], lam_ref[low], rtol=1e-5)
     f = np.linspace(3.0, 60.0, 300)
@@ -317,8 +319,8 @@ def test_a_joint_fit_with_the_water_takes_its_trilinear_dampers_exactly(model3):
     and factor; the support's damping bilinear): the same system poles as a fresh build with both entries."""
     from exudyn_study.diagnose import rig_candidates as rc
     from exudyn_study.diagnose.rig_hypotheses import CompositeHypothesis, SloshingHypothesis, model_system
+    from exudyn_study.linear.system import state_space
     from exudyn_study.physics import entry
-    from exudyn_study.simulate import _state_space
 
     slosh = SloshingHypothesis("tank_left", entry("sloshing"), model3, rc.SLOSH_FREQUENCY_HZ,
                                dict(rc.SLOSH_START))
@@ -338,7 +340,7 @@ def test_a_joint_fit_with_the_water_takes_its_trilinear_dampers_exactly(model3):
         name, loc, carried = h.carried(v)
         entry(name).apply(model, loc, **carried)
     ref = model_system(model)
-    lam_got, lam_ref = (np.sort_complex(np.linalg.eigvals(_state_space(s)[0])) for s in (comp.system(p), ref))
+    lam_got, lam_ref = (np.sort_complex(np.linalg.eigvals(state_space(s)[0])) for s in (comp.system(p), ref))
     low = np.abs(lam_ref) < 2 * np.pi * 200
     np.testing.assert_allclose(lam_got[low], lam_ref[low], rtol=1e-5)
 
@@ -349,14 +351,14 @@ def test_joint_friction_candidate_equals_the_model_with_friction(model3):
     the same tangent system, element directions and Jenkins laws, hence the same time response."""
     from exudyn_study.diagnose.rig_candidates import FRICTION_START, _jenkins_laws
     from exudyn_study.diagnose.rig_hypotheses import LocalElementHypothesis
+    from exudyn_study.linear.nonlinear import simulate_local_nonlinear
     from exudyn_study.model.rig import Drive
     from exudyn_study.physics import entry
-    from exudyn_study.physics.entries_more import _contact_normal
-    from exudyn_study.physics.nonlinear import simulate_local_nonlinear
+    from exudyn_study.physics.entries_more import contact_normal
 
     key = "tank_left.tank_left_front"
     probe = model3()
-    normal = _contact_normal(probe, key)
+    normal = contact_normal(probe, key)
     h = LocalElementHypothesis(
         "joint_friction",
         key,
@@ -378,7 +380,7 @@ def test_joint_friction_candidate_equals_the_model_with_friction(model3):
     y_ref = simulate_local_nonlinear(ref.lin, drive, ref.gather, ref.laws, 2)
     assert np.abs(y_got - y_ref).max() <= 1e-6 * np.abs(y_ref).max()
     # the contact does slip at this level: the response is not that of the stuck joint
-    from exudyn_study.simulate import simulate_linear
+    from exudyn_study.linear.response import simulate_linear
 
     y_stuck = simulate_linear(ref.lin, drive)
     assert np.abs(y_stuck - y_ref).max() > 0.01 * np.abs(y_ref).max()

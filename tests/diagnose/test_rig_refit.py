@@ -32,8 +32,8 @@ def _scenario(augmentations, seed=5):
 
 
 def _build(bodies):
+    from exudyn_study.bodies.damping import parse_damping
     from exudyn_study.model import build_model_from_bodies
-    from exudyn_study.rig_cli import parse_damping
 
     return lambda: build_model_from_bodies(
         bodies, 1, damping=parse_damping("constant-2"), sensors=FRAME_SENSORS, exudyn_mesh="used"
@@ -51,9 +51,9 @@ def test_the_final_refit_corrects_a_finding_and_flags_one_the_data_do_not_suppor
     from exudyn_study.diagnose.rig_candidates import _rear_support_basis
     from exudyn_study.diagnose.rig_compare import prepare
     from exudyn_study.diagnose.rig_hypotheses import AddedMassHypothesis, ConnectorHypothesis, model_system
+    from exudyn_study.linear.nonlinear import marker_displacement_map
     from exudyn_study.physics import entry
     from exudyn_study.physics.entries import location_point
-    from exudyn_study.physics.nonlinear import marker_displacement_map
 
     train = virtual_recording(
         _scenario((Augment("rear_support_compliance", "rear_left", REAR),)),

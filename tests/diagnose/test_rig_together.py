@@ -18,9 +18,9 @@ START = {"stiffness_n_per_m": 1e8, "rotational_stiffness_n_m_per_rad": 1e6, "dam
 
 
 def _modes(system):
-    from exudyn_study.simulate import _state_space
+    from exudyn_study.linear.system import state_space
 
-    lam = np.linalg.eigvals(_state_space(system)[0])
+    lam = np.linalg.eigvals(state_space(system)[0])
     lam = lam[(lam.imag > 0) & (np.abs(lam) < 2 * np.pi * 200)]
     order = np.argsort(np.abs(lam))
     return np.abs(lam[order]) / (2 * np.pi), -lam.real[order] / np.abs(lam[order])

@@ -103,7 +103,7 @@ def test_uff_without_type58(tmp_path, capsys):
 
 
 def test_identify_imports_neither_exudyn_nor_ngsolve():
-    code = ("import sys, exudyn_study.identify, exudyn_study.identify.cli, "
+    code = ("import sys, exudyn_study.identify, exudyn_study.cli.identify, "
             "exudyn_study.identify.plots, exudyn_study.identify.synthetic; "
             "bad = [m for m in ('exudyn', 'ngsolve', 'netgen') if m in sys.modules]; "
             "print(bad); sys.exit(1 if bad else 0)")

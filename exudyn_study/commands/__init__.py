@@ -1,1 +1,0 @@
-"""Subcommands of the ``exudyn-study`` console script that are not part of a library subpackage."""

@@ -1,0 +1,1 @@
+"""Infrastructure shared by every package: the on-disk cache, atomic writes, BLAS threads."""
