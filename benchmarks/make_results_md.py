@@ -34,6 +34,8 @@ def _fmt(value) -> str:
     if isinstance(value, float):
         return f"{value:.4g}"
     if isinstance(value, list):
+        if not value:
+            return "none"
         if len(value) > MAX_LIST:
             return f"({len(value)} values)"
         return ", ".join(_fmt(v) for v in value)
