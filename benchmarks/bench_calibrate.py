@@ -1,6 +1,7 @@
 """Benchmark: automatic damping calibration (issue 5).
 
-One command: ``python benchmarks/bench_calibrate.py [--skip-models] [--cutoff-hz 500] [--mesh production]``.
+One command: ``python benchmarks/bench_calibrate.py [--skip-models] [--cutoff-hz 500] [--mesh production]
+[--no-results]``.
 
 1. **Two-beam test system** (the one of ``tests/test_calibrate.py``): wall time of the one
    linearisation, of one eigen-solve with derivatives, and of a calibration (evaluations,
@@ -14,7 +15,9 @@ One command: ``python benchmarks/bench_calibrate.py [--skip-models] [--cutoff-hz
 3. **Model 3** with one ratio per component: best achievable error, next to the thesis's
    hand-chosen Table 6 damping (its Table 7).
 
-Times on a shared 2-core machine are noisy; the evaluation counts are not.
+Times on a shared 2-core machine are noisy; the evaluation counts are not. The figures of each
+part go with date, commit and load to ``benchmarks/results/bench_calibrate.json``
+(``--no-results``: not written).
 """
 
 from __future__ import annotations
@@ -128,7 +131,9 @@ def two_beam_builder():
     return body, build
 
 
-def bench_test_system() -> None:
+def bench_test_system() -> dict:
+    """Time and check the calibration on the two-beam test system; return its figures."""
+    figures = {}
     print("== two-beam test system (2 x 13-mode Craig-Bampton beams, 26 coordinates)")
     t0 = time.perf_counter()
     body, build = two_beam_builder()
@@ -157,6 +162,11 @@ def bench_test_system() -> None:
         )
         for reg in (0.0, 1e-3):
             res = calibrate(system, design, target, x0=np.full(design.n_variables, 0.3), regularization=reg)
+            figures[f"{label}, alpha {reg:g}"] = {
+                "variables": design.n_variables, "targets": len(target), "evaluations": res.n_evaluations,
+                "wall_s": res.wall_time_s,
+                "max_abs_variable_error": float(np.abs(res.variables - x_true).max()),
+                "max_error_pp": 100 * res.max_abs_error}
             print(
                 f"  {label:18s} alpha={reg:<6g} {design.n_variables:2d} vars, {len(target):2d} targets: "
                 f"{res.n_evaluations:3d} evaluations, {res.wall_time_s:6.3f} s; "
@@ -167,14 +177,19 @@ def bench_test_system() -> None:
             f"    linearise {1e3 * t_lin:.1f} ms, eigen-solve + derivatives {1e3 * t_eval:.2f} ms, "
             f"basis vs Exudyn max |d zeta| {dz:.1e}"
         )
+        figures[f"{label}, linear basis"] = {"linearise_ms": 1e3 * t_lin, "eigen_solve_ms": 1e3 * t_eval,
+                                              "max_abs_damping_vs_exudyn": float(dz)}
+    return figures
 
 
-def bench_models(cutoff_hz: float, mesh: str) -> None:
+def bench_models(cutoff_hz: float, mesh: str) -> dict:
+    """Calibrate Models 1-3 against thesis Table 1; return the figures per model."""
+    figures = {}
     try:
         from exudyn_study.model import build_model
     except ImportError:
         print("\n== Models 1-3: skipped (exudyn_study.model.build_model is not available)")
-        return
+        return figures
     target = table1_target()
     for variant in (1, 2, 3):
         t0 = time.perf_counter()
@@ -186,6 +201,11 @@ def bench_models(cutoff_hz: float, mesh: str) -> None:
         design = DampingDesign.per_body(bodies) if variant == 3 else DampingDesign.per_mode(bodies, cutoff_hz)
         res = calibrate(system, design, target)
         ok = res.max_abs_error * 100 <= ACCEPT_PP and res.wall_time_s < ACCEPT_S
+        figures[f"model {variant}"] = fig = {
+            "mesh": mesh, "build_s": t_build, "variables": design.n_variables,
+            "targets_paired": len(res.paired), "targets": len(target), "evaluations": res.n_evaluations,
+            "wall_s": res.wall_time_s,
+            "linearise_s": res.linearise_time_s, "max_error_pp": 100 * res.max_abs_error}
         print(
             f"\n== Model {variant} ({mesh} mesh; build {t_build:.1f} s, not counted): {design.n_variables} "
             f"variables, {len(res.paired)}/{len(target)} targets paired, {res.n_evaluations} evaluations, "
@@ -201,13 +221,16 @@ def bench_models(cutoff_hz: float, mesh: str) -> None:
             t7 = np.array(TABLE7)
             err7 = np.abs(t7[:, 1] - np.array([z for _, z in TABLE1[: len(t7)]]))
             print(f"  thesis Table 7 (hand-chosen Table 6, by mode number): max |error| {err7.max():.2f} pp")
+            fig.update(body_ratios_pct=chosen, thesis_table7_max_error_pp=float(err7.max()))
         else:
+            fig["pass"] = ok
             print(
                 f"  [{'PASS' if ok else 'FAIL'}: <= {ACCEPT_PP} pp and < {ACCEPT_S:.0f} s; "
                 f"thesis Table 5 hand iteration: up to {THESIS_TABLE5_MAX_ERROR_PP} pp]"
             )
         res.plot(f"calibration_model{variant}.png")
         res.write_json(f"calibration_model{variant}.json", {"model": variant, "target": "thesis Table 1"})
+    return figures
 
 
 def main() -> None:
@@ -215,10 +238,16 @@ def main() -> None:
     parser.add_argument("--skip-models", action="store_true", help="only the two-beam test system")
     parser.add_argument("--cutoff-hz", type=float, default=500.0, help="Models 1/2 design cut-off (Hz)")
     parser.add_argument("--mesh", default="production", help="rig model mesh size")
+    parser.add_argument("--no-results", action="store_true", help="do not write benchmarks/results/*.json")
     args = parser.parse_args()
-    bench_test_system()
+    from results import start_run, write_results  # benchmarks/results.py, beside this script
+
+    run = start_run()
+    figures = {"test_system": bench_test_system()}
     if not args.skip_models:
-        bench_models(args.cutoff_hz, args.mesh)
+        figures["models"] = bench_models(args.cutoff_hz, args.mesh)
+    if not args.no_results:
+        print(f"key figures {write_results('bench_calibrate', figures, args=args, start=run)}")
 
 
 if __name__ == "__main__":

@@ -17,7 +17,10 @@ test-50}, against the measured recordings in ``--measured-dir`` (``<name>_<signa
 without it, they are made first by the virtual test rig's ``thesis`` scenario (timed apart).
 Prints the wall time and the summary table; CSV and plots go to ``--out``.
 
-    python benchmarks/bench_damage_grid.py [--measured-dir DIR] [--out DIR] [--skip-grid]
+    python benchmarks/bench_damage_grid.py [--measured-dir DIR] [--out DIR] [--skip-grid] [--no-results]
+
+The iteration errors of part 1 and the summary per grid cell of part 2 go with date, commit and
+load to ``benchmarks/results/bench_damage_grid.json`` (``--no-results``: not written).
 """
 
 from __future__ import annotations
@@ -45,7 +48,13 @@ def _errors_table(label: str, res) -> None:
           f"after {res.n_iterations} update(s)")
 
 
-def linkage_acceptance(variant: int, damping: str, duration_s: float, cache_dir=None) -> bool:
+def _iteration_figures(res) -> dict:
+    return {"converged": res.converged, "updates": res.n_iterations, "best_error_pct": 100 * res.best_error,
+            "error_per_run_pct": [100 * float(max(row)) for row in res.errors]}
+
+
+def linkage_acceptance(variant: int, damping: str, duration_s: float, cache_dir=None) -> dict:
+    """Drive iteration against a truth with a linkage resonance (part 1); return its figures."""
     from exudyn_study.linear.response import frf_linear
     from exudyn_study.model import build_model
     from exudyn_study.model.linearisation import system_modes
@@ -97,10 +106,16 @@ def linkage_acceptance(variant: int, damping: str, duration_s: float, cache_dir=
     _errors_table("(c) as (b) with H fixed (plain Fig. 21 scheme)", c)
     ok = a.converged and b.converged and b.n_iterations <= 10
     print(f"  [{'PASS' if ok else 'FAIL'}: (a) and (b) below {100 * ACCEPT:g} % rms within 10 iterations]")
-    return ok
+    return {
+        "model": variant, "damping": damping, "duration_s": duration_s,
+        "linkage_stiffness_n_per_m": k_used, "linkage_mode_hz": f_new,
+        "nominal_iterated": _iteration_figures(a), "truth_frf_updated": _iteration_figures(b),
+        "truth_frf_fixed": _iteration_figures(c), "pass": ok,
+    }
 
 
-def full_grid(measured_dir: str | None, out: Path, cache_dir=None, iterations: int = 5) -> None:
+def full_grid(measured_dir: str | None, out: Path, cache_dir=None, iterations: int = 5) -> dict:
+    """The study grid (part 2); return its wall time and the summary per cell."""
     from exudyn_study.sweep.damage_grid import measured_recordings, run_grid
 
     if measured_dir is None:
@@ -130,6 +145,18 @@ def full_grid(measured_dir: str | None, out: Path, cache_dir=None, iterations: i
     for n in names:
         print("  " + f"{n:<8}" + "".join(f"{100 * c.damage[n].ratio:22.1f}" for c in res.cells
                                          if c.signal == signal))
+    cells = []
+    for c in res.cells:
+        r = 100 * c.damage.ratios
+        r = r[np.isfinite(r)]
+        cells.append({"model": c.model, "damping": c.damping, "signal": c.signal,
+                      "control_error_pct": 100 * c.final_error, "converged": c.converged,
+                      "relative_damage_median_pct": float(np.median(r)) if r.size else None,
+                      "relative_damage_min_pct": float(r.min()) if r.size else None,
+                      "relative_damage_max_pct": float(r.max()) if r.size else None,
+                      "sensors_within_50_200_pct": int(np.sum((r >= 50) & (r <= 200))),
+                      "sensors": int(r.size), "wall_s": c.wall_s})
+    return {"wall_s": res.wall_time_s, "cells": cells}
 
 
 def main() -> None:
@@ -143,7 +170,12 @@ def main() -> None:
     p.add_argument("--skip-grid", action="store_true")
     p.add_argument("--skip-linkage", action="store_true")
     p.add_argument("--cache-dir", default=None)
+    p.add_argument("--no-results", action="store_true", help="do not write benchmarks/results/*.json")
     args = p.parse_args()
+    from results import start_run, write_results  # benchmarks/results.py, beside this script
+
+    run = start_run()
+    figures = {}
     out = Path(args.out) if args.out else Path(tempfile.mkdtemp(prefix="damage_grid_"))
     out.mkdir(parents=True, exist_ok=True)
     from exudyn_study.infra.blas import single_threaded_blas
@@ -151,10 +183,12 @@ def main() -> None:
     t0 = time.perf_counter()
     with single_threaded_blas():  # small dense algebra: one BLAS thread is faster on a loaded machine
         if not args.skip_linkage:
-            linkage_acceptance(args.model, args.damping, args.duration, args.cache_dir)
+            figures["linkage"] = linkage_acceptance(args.model, args.damping, args.duration, args.cache_dir)
         if not args.skip_grid:
-            full_grid(args.measured_dir, out, args.cache_dir, args.iterations)
+            figures["grid"] = full_grid(args.measured_dir, out, args.cache_dir, args.iterations)
     print(f"\ntotal {time.perf_counter() - t0:.1f} s")
+    if not args.no_results:
+        print(f"key figures {write_results('bench_damage_grid', figures, args=args, start=run)}")
 
 
 if __name__ == "__main__":

@@ -9,11 +9,16 @@ error of the nominal and the fitted model, the named physics and its parameters 
 the truth, and wall times.
 
     python benchmarks/bench_diagnose_generic.py [--joints friction stiffening] [--force] [--out DIR]
+        [--no-results]
 
 With ``--force`` the structure is driven by a shaker force on B3 (0.15, 0.45, 1.5, 4.5 N rms,
 table fixed, drive-point accelerometer B3) instead of the table.
 
 With ``--out`` the diagnosis JSON and the HTML report of each case are written there.
+
+Per joint law the named physics, its parameters, the train and held-out errors and the wall times
+go with date, commit and load to ``benchmarks/results/bench_diagnose_generic--<table|force>.json``
+(``--no-results``: not written).
 """
 
 from __future__ import annotations
@@ -31,6 +36,8 @@ from exudyn_study.diagnose.report import write_report
 LEVELS = (0.1, 0.3, 1.0, 3.0)
 FORCE_LEVELS = (0.15, 0.45, 1.5, 4.5)
 TRAIN, HOLDOUT = (0, 2), (1, 3)
+#: a finding's errors kept in the result file (relative FRF errors, before and after the fit)
+FIT_FIGURES = ("train_before", "train_after", "holdout_before", "holdout_after")
 
 
 def truth(joint: str, s: tb.TestStructure) -> str:
@@ -49,11 +56,16 @@ def main() -> None:
     parser.add_argument("--joints", nargs="+", default=list(tb.JOINTS), choices=tb.JOINTS)
     parser.add_argument("--force", action="store_true", help="shaker force on B3 instead of the table drive")
     parser.add_argument("--out", type=Path, default=None, help="write JSON + HTML report per case here")
+    parser.add_argument("--no-results", action="store_true", help="do not write benchmarks/results/*.json")
     args = parser.parse_args()
+    from results import start_run, write_results  # benchmarks/results.py, beside this script
+
+    run = start_run()
     if args.out is not None:
         args.out.mkdir(parents=True, exist_ok=True)
     s = tb.TestStructure()
     levels = FORCE_LEVELS if args.force else LEVELS
+    key_figures = {"levels": levels, "train": TRAIN, "holdout": HOLDOUT, "joints": {}}
     print(
         f"levels ({'N' if args.force else 'm/s^2'} rms): {levels}; train {[levels[i] for i in TRAIN]}, "
         f"held out {[levels[i] for i in HOLDOUT]}"
@@ -81,6 +93,16 @@ def main() -> None:
         t_diag = time.perf_counter() - t0
         print(f"\n=== joint '{joint}' (truth: {truth(joint, s)}) ===")
         print(f"truth simulation {t_sim:.1f} s, diagnosis {t_diag:.1f} s -> {d.summary}")
+        key_figures["joints"][joint] = {
+            "truth": truth(joint, s), "wall_simulation_s": t_sim, "wall_diagnosis_s": t_diag,
+            "findings": [
+                {"physics": f.physics, "interface": f.location.get("interface"),
+                 "level_dependent": f.level_dependent,
+                 "parameters": {name: p["value"] for name, p in f.parameters.items()},
+                 **{k: f.fit.get(k) for k in FIT_FIGURES}}
+                for f in d.findings
+            ],
+        }
         for f in d.findings:
             print(
                 f"named: {f.physics} at interface {f.location['interface']}, band "
@@ -106,6 +128,10 @@ def main() -> None:
         if args.out is not None:
             d.write_json(args.out / f"{joint}.json")
             write_report(d, args.out / f"{joint}_report", figures)
+    if not args.no_results:
+        case = "force" if args.force else "table"
+        path = write_results("bench_diagnose_generic", key_figures, args=args, case=case, start=run)
+        print(f"key figures {path}")
 
 
 if __name__ == "__main__":

@@ -15,38 +15,12 @@ Only the scorer reads the truth. Scores:
 - held-out error (the diagnosis's metric) reduced by at least 50 %;
 - wall time per diagnosis.
 
-Result (session 6, commit b1a87e4, load 1-2, 19:00-19:45): 20 effects (sensor gain x5, drive
-linkage x6, bushing stiffening on Model 3 x4, modal damping x3, added mass x2): physics 20/20,
-location 20/20, parameters within 15 % 20/20 (largest error 0.75 %), held-out error at least halved
-20/20; 3/3 no-effect scenarios without a finding. Diagnosis wall time median 43 s, max 344 s (a
-Model-3 bushing scenario; its nonlinear truth recordings 33-73 s).
-
-Session 8 (the sloshing candidate, the rear supports fitted fore-aft, the pad's rocking about x
-free, joint fits of up to 10): scenarios 0-9 and 13-16 (``--start 13 --n 4``) and the 3 without an
-effect, at load 3-4 (two runs, the thesis diagnosis and the test suite alongside): 14/14 effects
-named, located, fitted within 15 % and held-out error halved (the four Model-3 bushing scenarios
-among them: 530-764 s each at that load); 3/3 no-effect scenarios without a finding. Session 9
-(``--start 10 --n 3`` and ``--start 17 --n 3``, load 2-3): scenarios 10-12 and 17-19 (sensor gain x4,
-drive linkage x2 on Model 1) 6/6, 35-108 s each; with session 8's, all 20 effects and the 3 without
-one pass on the current candidates. (Those six ran before the final refit held the parameters that
-ended at a bound in their round; a single-effect scenario has one finding and no final refit.)
-
-Session 11 (the joint fits' damping hold of e66de4f; the diagnosis code of 2c7d6fe, unchanged since):
-scenarios 4-19 (``--start 4 --n 6``, ``--start 10 --n 3``, ``--start 13 --n 4``, ``--start 17 --n 3``)
-and the 3 without an effect, load 1-2: 16/16 named, located, fitted within 15 % and held-out error
-halved, 3/3 without a finding; with session 10's scenarios 0-3 on e66de4f all 20 effects and the 3
-without one pass on the current code. Wall time per diagnosis 50-493 s (the Model-3 bushing
-scenarios 355-493 s; scenario 7's 1228 s includes a 15-minute pause of the run).
-
-Session 12 (c7662bf: joint candidates with the vertical stiffness apart, both mounts of a tank in one
-joint fit, the joint fit's second start at the best-screened physics' prior): the Model-3 scenarios 4-6
-and 13-16 (``--start 4 --n 3``, ``--start 13 --n 4``; bushing stiffening x3, added mass x2, drive
-linkage x2), load 2-3: 7/7 named, located, fitted within 15 % and held-out error halved; the bushing
-scenarios 308, 377 and 309 s (session 11: 493, 374, 355 s). The other scenarios were not re-run on
-that code (Model 1: no joint candidates; the second start acts only in a joint fit).
-
-Run: ``python3 benchmarks/bench_diagnose_rig.py [--n 20] [--n-none 3] [--out DIR]``
-(about 2-4 min per scenario on 2 cores). Results: ``DIR/results.json`` and a table on stdout.
+Run: ``python3 benchmarks/bench_diagnose_rig.py [--n 20] [--n-none 3] [--start 0] [--out DIR]
+[--no-results]`` (minutes per scenario on 2 cores; ``--start I --n N`` runs scenarios I..I+N-1).
+Results: ``DIR/results.json`` and a table on stdout; the scores (per scenario and in total) and the
+wall times with date, commit and load in ``benchmarks/results/bench_diagnose_rig.json``
+(``bench_diagnose_rig--s<start>-n<n>-none<n_none>.json`` for another selection; ``--no-results``: not
+written).
 """
 
 from __future__ import annotations
@@ -133,7 +107,11 @@ def main(argv=None) -> int:
     ap.add_argument("--out", default=None, help="directory for results.json (default: a temporary one)")
     ap.add_argument("--start", type=int, default=0, help="first scenario index")
     ap.add_argument("--verbose", action="store_true", help="print the diagnosis's progress lines")
+    ap.add_argument("--no-results", action="store_true", help="do not write benchmarks/results/*.json")
     args = ap.parse_args(argv)
+    from results import start_run, write_results  # benchmarks/results.py, beside this script
+
+    run = start_run()
     out_dir = Path(args.out or tempfile.mkdtemp(prefix="bench_diagnose_rig_"))
     out_dir.mkdir(parents=True, exist_ok=True)
     scenarios = [random_scenario(i) for i in range(args.start, args.start + args.n)]
@@ -201,6 +179,24 @@ def main(argv=None) -> int:
     print(
         f"diagnosis wall time: median {np.median(walls):.0f} s, max {np.max(walls):.0f} s; results {results_path}"
     )
+    if not args.no_results:
+        keys = ("physics_ok", "location_ok", "parameters_ok", "holdout_ok")
+        figures = {
+            "n_effect": len(effect),
+            **{f"effect_{k}": sum(bool(r[k]) for r in effect) for k in keys},
+            "n_none": len(none),
+            "none_without_finding": sum(bool(r["physics_ok"]) for r in none),
+            "wall_diagnosis_median_s": float(np.median(walls)),
+            "wall_diagnosis_max_s": float(np.max(walls)),
+            "scenarios": [
+                {"scenario": r["scenario"], "effect": r["effect"], "found": r["found"],
+                 **{k: r[k] for k in keys}, "wall_diagnosis_s": r["wall_diagnosis_s"]}
+                for r in rows
+            ],
+        }
+        default = (args.start, args.n, args.n_none) == (0, 20, 3)
+        case = None if default else f"s{args.start}-n{args.n}-none{args.n_none}"
+        print(f"key figures {write_results('bench_diagnose_rig', figures, args=args, case=case, start=run)}")
     return 0
 
 

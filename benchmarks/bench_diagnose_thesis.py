@@ -3,9 +3,9 @@
 The virtual rig plays the ``thesis`` scenario (compliant tank and bracket joints, the right
 tank's mounts soft only vertically, the compliant drive linkage, rear supports compliant
 vertically and fore-aft, the water sloshing in both tanks, the right tank's wall mode, the left
-pad's cubic hardening, banded damping; ``--scenario thesis-iso``: the truth of sessions 8-15,
-mounts equally stiff on all axes and no wall mode; ``--scenario thesis-dry``: the session-6 truth
-without the water and the fore-aft compliance) into white
+pad's cubic hardening, banded damping; ``--scenario thesis-iso``: the tank mounts equally stiff
+on all axes and no wall mode; ``--scenario thesis-dry``: that truth without the water and the
+fore-aft compliance; docs/thesis-truth.md) into white
 noise, the test signal at 50 % and at 100 %. The diagnosis gets only the recording files
 and the nominal model (Model 3 with the scenario's damping), never the truth; only this
 script reads the truth file, to print fitted against true parameters.
@@ -35,146 +35,16 @@ unexplained, the wall time and the machine load. Acceptance: the linkage complia
 the bushing nonlinearity found; the pseudo damage moves toward 100 %; one diagnosis under
 10 minutes.
 
-Result (session 6, the session-5 truth and recordings, now ``thesis-dry``, protocol ``levels``, 60 s
-recordings, default 540 s budget, load 1.0): 789 s, four rounds. Found, all in the truth: both rear
-supports (2.20e7 and 2.76e7 N/m, truth 2.2e7 each), the four tank mounts (values 0.02-25x off; two
-flagged at a bound or drifting), the pad's linear stiffness (shear modulus at its bound), the
-linkage (1.40e7 N/m, truth 1.2e7; 89 kg, truth 20 kg) and, new, the pad's cubic hardening in
-compression (5.8e12 N/m^3 per quadrant, truth 3e12: +93 %, fitted on the level-dependent share
-``y_300 - 6 y_50``; it explains 36 % of that share's rms). It is found because the linear findings
-are now refitted together *before* the nonlinear candidates are screened: on the round's model the
-cubic's screening score was 0.001, on the refitted one 0.16 (the share is compared in time, so it
-needs the bracket's modes right; on the truth's own linear model the cubic explains 93 % of it). No
-finding the truth lacks. Held-out error (white noise / test at 200 %) 5.07/3.68 -> 0.48/0.42; at the
-bracket's sensors (ASVX/Y/Z) the cubic takes the test at 200 % from 0.431 to 0.423 and the white
-noise from 0.608 to 0.605 (the linear mismatch left there dominates). Relative pseudo damage at the
-21 z sensors median 47 944 % -> 240 % (75-341 %), 19/21 closer to 100 %. Wall time: round 4 took 525
-s, of which the joint refit 213 s and the nonlinear screening and fit 166 s, so this scenario does
-not diagnose in 10 minutes (the blind benchmark's scenarios do: median 43 s, max 344 s).
-
-Result (session 8, the ``thesis`` truth with the water, its session-7 recordings, protocol ``levels``,
-60 s recordings, ``--time-budget 1800``, load 2-4: blind-benchmark runs and the test suite alongside):
-2336 s, three rounds. Found, all in the truth: both rear supports (vertical 2.22e7 and 2.37e7 N/m, truth
-2.2e7; fore-aft 9.3e7 and 1.13e8 N/m, truth 1e8), the four tank mounts (right rear and front within
-10 % in translation and rotation; the left tank's stiff translational springs at or near their bound,
-its rotations within 21 %), the linkage (1.22e7 N/m, truth 1.2e7; 27 kg, truth 20), the pad (shear
-+2.36 MPa, truth 2.3; rocking about x 4.78 MPa, truth 4.68; compression 2.1e7, truth 1.04e7), the
-water in both tanks (70.9 and 72.6 kg at the assumed 1.5 Hz, truth 70 kg at 2.5 Hz: the damping
-ratios trade with the frequency), the right bracket's joint, and the pad's cubic hardening in
-compression (2.82e12 N/m^3, truth 3e12: -6 %; it explains 73 % of the level-dependent share at the
-held-out 200 % level, held-out error 0.0933 -> 0.0936, within the 5 % a nonlinear finding may cost).
-Held-out error (white noise / test at 200 %) 4.91/4.03 -> 0.096/0.091. Relative pseudo damage at the
-21 z sensors median 44 091 % -> 102 % (76-114 %), 21/21 closer to 100 %. (The run printed the two
-water findings as "NOT in the truth": this script's matcher lacked ``sloshing``; fixed after the run.)
-Not under 10 minutes: round 1 fits 10 candidates together, and the final joint refit of 11 findings
-takes minutes. Without the water and fore-aft candidates (session 7) the cubic was not found here; on
-``thesis-dry`` with the session-8 candidates and the pad's rocking about x tied (run before that was
-freed), the cubic was not found either (490 s), so ``thesis-dry`` is kept for the Table-1 comparison
-only.
-
-Session 9 (the same recordings, the final refit holding the parameters that ended at a bound in their
-round, load 1-2.5): 1447 s, the same 12 findings, all in the truth (rear supports 1.87e7 and 2.77e7
-N/m, water 59 and 55 kg, the cubic 2.55e12 N/m^3, -15 %, explaining 67 % of the held-out level-dependent
-share); held-out error 4.91/4.03 -> 0.228/0.219 (session 8, refit all free: 0.096/0.091); pseudo damage
-median 44 091 % -> 128 % (42-552 %), 20/21 closer to 100 %. On a trial truth with the right tank's
-mounts soft only vertically (Table 1: 9/10, see ``THESIS_FIT['not_reached']``) the diagnosis failed:
-round 1's joint fit went to soft supports and a 500 kg linkage (514 s, nothing found; with a joint
-candidate fitting the vertical stiffness apart 390 s, held-out 1.09, no cubic).
-
-Session 10 (recordings written fresh by the current code; sessions 8 and 9 reused session 7's, whose
-truth file is the same but whose code was older, so their recordings differ): at 6f6e2ff 7 findings,
-the cubic not found (it explained 8.7 % of the share), held-out 4.91/4.03 -> 0.845/0.847, pseudo damage
-median 0.49 %: round 1's joint fit had run both tank rear mounts' damping to its 1e-2 s bound (standing in
-for the water). With a damping time at its upper bound held at its start in the joint fits and the
-final refit tried free first (load 1.6-2): 1874 s, 13 findings, 12 in the truth (not: a joint at the left
-bracket, 1.2e7 N/m), the cubic 4.06e12 N/m^3 (+35 %), linkage 1.36e7 N/m (+13 %), held-out 0.172/0.173,
-pseudo damage median 44 091 % -> 111 % (44-195 %), 20/21 closer to 100 %.
-
-Session 12 (c7662bf: joint candidates with the vertical stiffness apart, both mounts of a tank in one joint
-fit, the joint fit started a second time with the best-screened physics at its prior start; session 11's
-recordings, the truth and recording code unchanged; load 2-3): round 1's second start 0.122 against 0.190
-from the screening optima, 9 members kept (both rear supports, all four tank mounts, both waters, the
-linkage), held-out 4.47 -> 0.60 (session 11: 1.16); then the pad (-> 0.32), the right bracket's joint
-(-> 0.16), the final joint refit, the cubic (71 % of the level-dependent share at the held-out level):
-12 findings, all in the truth, held-out 0.0946 (from the progress log: that run's table printing failed on
-a parameter without a standard deviation, since fixed). On session 9's per-axis trial truth (the right
-tank's mounts soft only vertically) round 1 now lands in the truth's basin (0.392 against 1.812;
-held-out 4.62 -> 0.68, session 11: 1.51); 9 findings, all in the truth (rear supports 2.55e7/1.95e7 N/m
-for 2e7, the right tank's front mount 1.8e7 N/m vertically for 2e7, linkage 1.16e7 N/m for 1.2e7), held-out
-0.511/0.472 (session 11: 1.12), pseudo damage median 76 022 % -> 86 %, 1756 s; but the pad explained 20 %
-of what was left after round 1 (a finding needs 30 %) and the cubic was not found.
-
-Session 13 (fresh recordings of the shipped truth, written by 14fec26's code; load 2): round 1's second
-start 0.1223 against 0.1899, 9 members kept, held-out 4.47 -> 0.596; the pad (-> 0.322), the right
-bracket's joint (-> 0.164), the final joint refit of 11 findings (free not adopted; with the parameters
-at their rounds' bounds held adopted: held-out 0.164 -> 0.094), the cubic (3.59e12 N/m^3, truth 3e12:
-+19.5 %; 71 % of the level-dependent share at the held-out level): 12 findings, all in the truth,
-held-out 4.91/4.03 -> 0.096/0.093, pseudo damage median 44 091 % -> 91 % (64-107 %), 20/21 closer to 100
-%; 4473 s (rounds 1-3 20 min, the refits most of the rest). Trials on the per-axis truth (branch
-``axis``; its recordings' code hash equals that branch's), not adopted: refitting the findings together
-and screening again when no candidate explains enough left the pad at 15 % (2624 s, held-out 0.51/0.47 as
-before); a third start of the joint fit (every member at its prior) on composites rebuilt at each start
-reached 0.181 in round 1 (rear supports 1.76e7/2.15e7 N/m, the right tank's mounts 2.0e7/3.08e7 N/m
-vertically, the linkage 1.21e7 N/m and 21.6 kg: near the truth) but dropped both waters (they did not
-pay) and ended at held-out 0.98/1.20 (952 s); on the shipped truth the same code gave 12 findings, all in
-the truth, held-out 0.242/0.252 (the right bracket's joint not found in its round; 2473 s). The joint
-entry's per-axis factors widened to 1e-7..1e7 (branch ``fix-clip``: a composite is exact only where no
-carried value is clipped) gave the per-axis truth's rounds 1 and 2 unchanged.
-
-Session 14 (the joint fit's composite exact everywhere: linearised at a 1 ms damping time and with a
-rear support's spring where the entry switches (a zero damping time, a support carried as rigid), the
-joint entry's per-axis factors bounded 1e-7..1e7, and the spectral residual refusing an indefinite mass
-matrix; fresh recordings, load 2): round 1's second start 0.157 against 0.277, 9 members kept, held-out
-4.47 -> 0.557; the pad (-> 0.344); round 3 fitted the right bracket's joint but it explained 16 % (it needs
-30 %): not found; the final joint refit of 10 findings adopted free (0.344 -> 0.180); the cubic 3.11e12
-N/m^3 (+3.6 %): 11 findings, all in the truth, held-out 0.198/0.162, pseudo damage median 44 091 % ->
-99 % (67-174 %), 21/21 closer to 100 %; 2379 s. Per round-1 value the two runs are about as close to the
-truth (this one nearer in the rear supports' and the water's damping and the cubic, farther in the
-linkage mass, 45 kg for 20, and the left tank's front mount); the higher held-out error is mostly the
-right bracket's mode (47.4 Hz), whose joint was not found. On the per-axis truth the exact composite gave
-round 1 0.934 (second start; 0.392 on the inexact one), held-out 0.74/0.76, the pad not found (672 s);
-before the mass check its joint fit ended with 300 + 250 kg of water sloshing, an indefinite mass matrix
-whose time response diverged, and every member was rejected. A third start (every member at its prior)
-on the exact composite reached 0.782 there and then nothing paid for itself: not adopted.
-
-Until session 15 ``thesis`` was the truth now named ``thesis-iso``: the results of sessions 6-14 above
-are on that truth (or on ``thesis-dry`` where said).
-
-Session 15 (``--scenario thesis-table1``, the truth whose EMA gives Table 1, ``thesis`` since session 16;
-fresh recordings): with the
-default starts round 1 ends at 0.922 (the left tank's front mount at 3.3e5 N/m vertically for 3.97e9, 300
-and 193 kg of water for 70), held-out 4.61 -> 0.78/0.80, the pad and its cubic not found (910 s). With
-``--all-prior-start`` (a third start, every member at its prior) round 1 reaches 0.465, round 3 finds the
-pad, and the final time-domain refit and the cubic (2.83e12 N/m^3, -5.6 %) give 12 findings, held-out
-0.180/0.171, pseudo damage median 59 910 % -> 96 % (84-225 %), 21/21 closer to 100 %: every acceptance
-item but the 10 minutes (2685 s, load 1-1.6).
-
-Session 16: the third start on by default (``RigDiagnosisSettings.composite_all_prior_start``;
-``--no-all-prior-start`` turns it off) and ``thesis-table1`` renamed ``thesis``, the old ``thesis``
-``thesis-iso``. On ``thesis`` (fresh recordings, the same truth and seed as session 15's, load 3-4.4):
-the same run as session 15's with ``--all-prior-start``: round 1 second start 0.922, third 0.465 (7
-members kept, held-out 4.61 -> 2.44), round 2 the linkage (-> 0.84), round 3 the pad with the right
-tank's water and the right bracket's joint (-> 0.41), the final time-domain refit (-> 0.175) and the
-cubic (2.83e12 N/m^3, truth 3e12: -5.6 %; 71 % of the level-dependent share at the held-out level): 12
-findings, all in the truth, held-out 0.180/0.171, pseudo damage median 59 910 % -> 96 % (84-225 %), 21/21
-closer to 100 %; 4991 s at that load (session 15: 2685 s at load 1-1.6). On ``thesis-iso`` with the
-third start (983e3e2 with ``--all-prior-start``, load 3-4): round 1's third start 0.1351 against the
-second's 0.1566, 9 members kept (held-out 4.47 -> 0.585), the pad (-> 0.374), then the 1800 s budget
-stopped the rounds (round 2 took 976 s at that load), so the cubic was not tried; final held-out
-0.205/0.168, pseudo damage median 44 091 % -> 101 %, 21/21 closer (3515 s). With ``--time-budget 3600``
-(2a4e49e, fresh recordings, load 1-4): the same rounds 1 and 2, then round 3 the right bracket's joint
-(-> 0.229; session 14 missed it), the final refit (-> 0.078): 11 findings, all in the truth, held-out
-0.082/0.074 (session 14: 0.198/0.162), pseudo damage median 44 091 % -> 96 % (69-112 %), 20/21 closer;
-but the budget again stopped the rounds before one found nothing (3212 s used, round 3 took 1393 s at load
-3-4), and the nonlinear candidates are screened only then, so the cubic was not tried (4477 s).
-
 Run: ``python3 benchmarks/bench_diagnose_thesis.py [--out DIR] [--recordings DIR] [--duration S]
 [--protocol levels|original] [--time-budget S] [--scenario thesis|thesis-iso|thesis-dry]
-[--no-all-prior-start]``
+[--no-all-prior-start] [--no-results]``
 (``--recordings`` reuses recordings written by an earlier run, only if its truth file is the scenario's
 and its ``recording_code.json`` holds the hash of the current recording code, i.e. the package's sources
 but the diagnosis and the EMA; else new ones are written). Results: ``DIR/thesis_diagnosis.json`` and
-the HTML report ``DIR/report/index.html``.
+the HTML report ``DIR/report/index.html``; the key figures (findings with fitted against true
+parameters, held-out error, pseudo damage summary, acceptance, wall times) with date, commit and load
+in ``benchmarks/results/bench_diagnose_thesis--<scenario>-<protocol>.json`` (``--no-results``: not
+written; ``benchmarks/make_results_md.py`` collects them in ``benchmarks/RESULTS.md``).
 """
 
 from __future__ import annotations
@@ -309,8 +179,8 @@ def main(argv=None) -> int:
         choices=("thesis", "thesis-iso", "thesis-dry"),
         default="thesis",
         help="the truth: the thesis scenario (tuned to Table 1; the diagnosis has no candidate for its "
-        "wall mode), the truth of sessions 8-15 (thesis-iso) or the session-6 truth without the water "
-        "(thesis-dry)",
+        "wall mode), its variant with isotropic tank mounts and no wall mode (thesis-iso) or that variant "
+        "without the water (thesis-dry)",
     )
     ap.add_argument(
         "--no-all-prior-start",
@@ -318,7 +188,11 @@ def main(argv=None) -> int:
         help="do not start a joint fit a third time with every member at its prior start "
         "(RigDiagnosisSettings.composite_all_prior_start, on by default)",
     )
+    ap.add_argument("--no-results", action="store_true", help="do not write benchmarks/results/*.json")
     args = ap.parse_args(argv)
+    from results import start_run, write_results  # benchmarks/results.py, beside this script
+
+    run = start_run()
     out_dir = Path(args.out or tempfile.mkdtemp(prefix="bench_diagnose_thesis_"))
     out_dir.mkdir(parents=True, exist_ok=True)
     rec_dir = Path(args.recordings) if args.recordings else out_dir
@@ -334,8 +208,8 @@ def main(argv=None) -> int:
     if truth_file.exists() and not _same_truth(truth_file, sc):
         reason = f"are of another version of the {sc.name} scenario (its truth file differs from scenario())"
     elif truth_file.exists() and not _same_code(rec_dir, code_hash):
-        # the same truth file, but other code may write other recordings of it (session 9 reused
-        # session 7's recordings and measured a diagnosis the current recordings did not give)
+        # the same truth file, but other code may write other recordings of it, and a diagnosis of those
+        # would not be the current code's
         reason = f"were written by other code (no {CODE_VERSION_FILE} there, or another hash of its sources)"
     stale = reason is not None
     if stale:
@@ -512,6 +386,40 @@ def main(argv=None) -> int:
     }
     path = write_text_atomic(out_dir / "thesis_diagnosis.json", json.dumps(result, indent=1, default=float))
     print(f"results {path}; report {report}")
+    if not args.no_results:
+        figures = {
+            "scenario": sc.name,
+            "protocol": args.protocol,
+            "time_budget_s": st.time_budget_s,
+            "all_prior_start": st.composite_all_prior_start,
+            "n_findings": len(rows),
+            "n_findings_in_truth": sum(r["in_truth"] for r in rows),
+            "findings": [
+                {
+                    "physics": r["physics"],
+                    "location": r["location"].get("interface") or r["location"].get("component"),
+                    "in_truth": r["in_truth"],
+                    "level_dependent": r["level_dependent"],
+                    "holdout_before": r["fit"].get("holdout_before"),
+                    "holdout_after": r["fit"].get("holdout_after"),
+                    "parameters": {
+                        k: {"fitted": v["fitted"], "truth": v["truth"]} for k, v in r["parameters"].items()
+                    },
+                }
+                for r in rows
+            ],
+            "nominal_holdout_error": d.metadata["nominal_holdout_error"],
+            "final_holdout_error": d.metadata.get("final_holdout_error"),
+            "final_refit_adopted": (d.metadata.get("final_refit") or {}).get("adopted"),
+            "n_unexplained": len(d.unexplained),
+            "pseudo_damage": summary,
+            "acceptance": accept,
+            "wall_recordings_s": t_rec,
+            "wall_diagnosis_s": wall,
+        }
+        case = f"{sc.name}-{args.protocol}"
+        path = write_results("bench_diagnose_thesis", figures, args=args, case=case, start=run)
+        print(f"key figures {path}")
     return 0
 
 

@@ -15,12 +15,17 @@ frequency-domain FRF of the linearised model (complex modal superposition) is ta
 Methods: ``linear`` (exact discretisation; the drive given by its 1 kHz samples, as in every
 simulation, reconstructed band-limited by :class:`exudyn_study.model.rig.Drive`: upsampled 8x,
 cubic spline on the fine grid), ``linear-spline`` (the same 1 kHz samples through the plain cubic
-spline, ``Drive(upsampling=1)``, the representation before: its acceleration is ~(w h)^2 / 12 off,
-1.1 % at 58 Hz), ``linear-oversampled`` (the 4 kHz samples of the same band-limited signal,
+spline, ``Drive(upsampling=1)``, for comparison: its acceleration is ~(w h)^2 / 12 off, 1.1 % at
+58 Hz), ``linear-oversampled`` (the 4 kHz samples of the same band-limited signal,
 output every 4th sample: what is left of the error is the estimator's), ``exudyn-reduced``
 (Exudyn's integration of the linearisation, 1/8 ms).
 
 Run:  python benchmarks/bench_frf.py [--model 1] [--method linear exudyn-reduced] [--duration 80] [--plot PNG]
+      [--no-results]
+
+Per method and estimator the channels within 1 dB, the median and largest error and the worst
+channels go with date, commit and load to ``benchmarks/results/bench_frf--model<N>.json``
+(``--no-results``: not written).
 """
 
 from __future__ import annotations
@@ -43,7 +48,12 @@ def main(argv=None) -> int:
     parser.add_argument("--duration", type=float, default=80.0)
     parser.add_argument("--seed", type=int, default=1)
     parser.add_argument("--plot", help="PNG: FRF overlays (model, Welch H1, LRM) at ARFVZ, ARFVY and ARFHY")
+    parser.add_argument("--no-results", action="store_true", help="do not write benchmarks/results/*.json")
     args = parser.parse_args(argv)
+    from results import start_run, write_results  # benchmarks/results.py, beside this script
+
+    run = start_run()
+    figures = {"model": args.model, "duration_s": args.duration, "seed": args.seed, "methods": {}}
 
     from exudyn_study.identify.lpm import estimate_frf_lpm
     from exudyn_study.infra.blas import single_threaded_blas
@@ -94,6 +104,7 @@ def main(argv=None) -> int:
                 f"\n[{method}] {args.duration:.0f} s white noise simulated "
                 f"in {time.perf_counter() - t0:.1f} s"
             )
+            t_sim = time.perf_counter() - t0
             rows = []
             f, h1 = estimate_frf(u, y)
             rows.append(("Welch H1, raw", frf_db_error(h1, frf_linear(lin, f)[:, 0, :], f)))
@@ -107,8 +118,14 @@ def main(argv=None) -> int:
                 )
             )
             overlays[method] = (f, h1, lrm)
+            figures["methods"][method] = {"wall_simulation_s": t_sim}
             for label, err in rows:
                 worst = np.argsort(err)[::-1][:3]
+                figures["methods"][method][label.split(" (")[0]] = {
+                    "channels_within_1db": int(np.sum(err <= 1.0)), "channels": int(err.size),
+                    "median_db": float(np.nanmedian(err)), "max_db": float(np.nanmax(err)),
+                    "worst": {lin.sensor_names[i]: float(err[i]) for i in worst},
+                }
                 print(
                     f"  {label:30s} {int(np.sum(err <= 1.0)):2d}/{err.size} channels within 1 dB; "
                     f"median {np.nanmedian(err):.3f} dB, max {np.nanmax(err):.2f} dB; worst "
@@ -117,6 +134,9 @@ def main(argv=None) -> int:
         if args.plot:
             _plot(args.plot, lin, overlays, frf_linear)
             print(f"\nwrote {args.plot}")
+    if not args.no_results:
+        path = write_results("bench_frf", figures, args=args, case=f"model{args.model}", start=run)
+        print(f"key figures {path}")
     return 0
 
 

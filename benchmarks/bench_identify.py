@@ -26,6 +26,11 @@ record length support (mean and standard deviation of dz per mode).
 
 Run:  python benchmarks/bench_identify.py   (needs the 'bench' extra: sdypy-EMA)
       python benchmarks/bench_identify.py --sweep --seeds 10 --durations 80
+      (``--no-results``: do not write the result file)
+
+The table's rows and the damping error per mode (comparison), or the worst case over the seeds
+and the oracle scatter (sweep), go with date, commit and load to
+``benchmarks/results/bench_identify.json`` (``bench_identify--sweep.json``).
 """
 
 from __future__ import annotations
@@ -125,6 +130,13 @@ def _fmt(name, row):
             f"{row['wall']:>8.1f}")
 
 
+def _figures(row: dict, **extra) -> dict:
+    """The scored figures of one identification (see ``_score``), for the result file."""
+    keys = {"found": "found", "spurious": "spurious", "nan": "nan_poles", "dup": "duplicates",
+            "df": "max_df_pct", "dz": "max_dz_pct", "mac": "min_mac", "wall": "wall_s"}
+    return {name: row[k] for k, name in keys.items()} | extra
+
+
 def _oracle(frf, sysm, weighted):
     """Damping/frequency errors (%) of the leakage-aware fit started at the TRUE poles."""
     leak = Leakage(frf.sample_rate_hz, frf.n_segment, frf.window)
@@ -135,11 +147,14 @@ def _oracle(frf, sysm, weighted):
             100 * (fit.frequency_hz / sysm.frequency_hz - 1))
 
 
-def sweep(durations, n_seeds, estimators=("H1", "H2", "Hv"), oracle=True) -> None:
-    """Seed sweep: per-seed figures, worst case, oracle scatter (see module notes)."""
+def sweep(durations, n_seeds, estimators=("H1", "H2", "Hv"), oracle=True) -> dict:
+    """Seed sweep: per-seed figures, worst case, oracle scatter (see module notes); return the summary."""
     sysm = table1_system(n_channels=36)
     names = [f"{f:.2f}" for f in sysm.frequency_hz]
+    summary = {}
     for duration in durations:
+        per_duration = {"worst_case": {}, "oracle_damping_error_pct": {}}
+        summary[f"{duration:g}s"] = per_duration
         rows = {}
         orc = {}
         print(f"\n=== seed sweep, {duration:g} s, 36 channels, Hv/H1/H2 at 0.2 Hz, seeds "
@@ -166,6 +181,12 @@ def sweep(durations, n_seeds, estimators=("H1", "H2", "Hv"), oracle=True) -> Non
         print(f"\nworst case over seeds 1..{n_seeds}, {duration:g} s:")
         for case, rs in rows.items():
             bad = [i + 1 for i, r in enumerate(rs) if r["found"] < 10 or r["spurious"] or r["dup"]]
+            per_duration["worst_case"][case] = {
+                "seeds_all_ten_no_spurious": len(rs) - len(bad), "seeds": len(rs), "failed_seeds": bad,
+                "max_df_pct": float(np.nanmax([r["df"] for r in rs])),
+                "max_dz_pct": float(np.nanmax([r["dz"] for r in rs])),
+                "min_mac": float(np.nanmin([r["mac"] for r in rs])),
+            }
             print(f"  {case:<26s} all ten, no spurious in {len(rs) - len(bad)}/{len(rs)} seeds"
                   f"{' (not: ' + str(bad) + ')' if bad else ''}; max |df| "
                   f"{np.nanmax([r['df'] for r in rs]):.3f} %, max |dz| "
@@ -181,6 +202,9 @@ def sweep(durations, n_seeds, estimators=("H1", "H2", "Hv"), oracle=True) -> Non
                 for stat, v in (("mean", a.mean(0)), ("std", a.std(0, ddof=1)),
                                 ("max", np.abs(a).max(0))):
                     print(f"{label:<22s}{stat:>6s}" + "".join(f"{x:>7.1f}" for x in v))
+                    per_duration["oracle_damping_error_pct"].setdefault(label, {})[stat] = dict(
+                        zip(names, v.tolist(), strict=True))
+    return summary
 
 
 def main() -> None:
@@ -192,10 +216,18 @@ def main() -> None:
     ap.add_argument("--seeds", type=int, default=10, help="seeds 1..N of the sweep (default 10)")
     ap.add_argument("--estimators", nargs="+", default=["H1", "H2", "Hv"])
     ap.add_argument("--no-oracle", action="store_true")
+    ap.add_argument("--no-results", action="store_true", help="do not write benchmarks/results/*.json")
     args = ap.parse_args()
+    from results import start_run, write_results  # benchmarks/results.py, beside this script
+
+    run = start_run()
     if args.sweep:
-        sweep(args.durations, args.seeds, tuple(args.estimators), oracle=not args.no_oracle)
+        figures = sweep(args.durations, args.seeds, tuple(args.estimators), oracle=not args.no_oracle)
+        if not args.no_results:
+            path = write_results("bench_identify", figures, args=args, case="sweep", start=run)
+            print(f"key figures {path}")
         return
+    table = {}
     sysm = table1_system(n_channels=36)
     print(__doc__.split("Run:")[0])
     hdr = (f"{'case':<34s} {'found':>6s} {'spur':>4s} {'NaN':>4s} {'dup':>4s} "
@@ -211,15 +243,18 @@ def main() -> None:
                                fmax_hz=60.0, outputs=sysm.names, inputs=("ARFVZ",))
             t_frf = time.perf_counter() - t0
             row = _ours(frf, sysm, True, duration)
+            table[f"{duration:g}s ours {est}"] = _figures(row, wall_frf_s=t_frf)
             print(_fmt(f"ours {est} (FRF {t_frf:.1f} s)", row))
             per_mode.append((f"ours {est} {duration:g}s", row["dz_modes"]))
             row0 = _ours(frf, sysm, False, duration)
+            table[f"{duration:g}s ours {est} no-leak"] = _figures(row0)
             print(_fmt(f"ours {est}, no leakage correction", row0))
             per_mode.append((f"ours {est} {duration:g}s no-leak", row0["dz_modes"]))
             if est == "Hv" and not args.no_sdypy:
                 try:
                     for fw in (50.0, 1.0):  # its default search window, and a tuned one
                         rs = _sdypy(frf, sysm, fw)
+                        table[f"{duration:g}s sdypy Hv fw={fw:g}"] = _figures(rs)
                         print(_fmt(f"sdypy-EMA Hv, f_window={fw:g} Hz", rs))
                         print(f"  sdypy-EMA frequencies: {rs['freqs']} {rs['note']}")
                         per_mode.append((f"sdypy Hv {duration:g}s fw={fw:g}", rs["dz_modes"]))
@@ -231,6 +266,10 @@ def main() -> None:
     print(f"{'case':<30s}" + "".join(f"{n:>8s}" for n in names))
     for case, d in per_mode:
         print(f"{case:<30s}" + "".join(f"{d.get(n, np.nan):>8.1f}" for n in names))
+    if not args.no_results:
+        figures = {"seed": args.seed, "cases": table,
+                   "damping_error_pct_per_mode": {case: {n: d.get(n) for n in names} for case, d in per_mode}}
+        print(f"key figures {write_results('bench_identify', figures, args=args, start=run)}")
 
 
 if __name__ == "__main__":

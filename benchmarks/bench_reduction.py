@@ -1,7 +1,7 @@
 """Benchmark: geometry -> mesh -> FE matrices -> Craig-Bampton -> FFRF terms, and cache hits.
 
 One command: ``python benchmarks/bench_reduction.py [--meshes coarse production]
-[--joints simple detailed] [--exudyn-hcb]``. Prints, per mesh size and joint model, the DOF
+[--joints simple detailed] [--exudyn-hcb] [--no-results]``. Prints, per mesh size and joint model, the DOF
 count and the wall time of each step with a fresh cache, then the time of a cache hit. A mesh
 size whose mesh parameters equal one already timed is reported as that one, not rebuilt (see
 :data:`exudyn_study.bodies.fe.chassis.MESH_SIZES`: coarse 0.2 m with less local refinement, production
@@ -12,7 +12,9 @@ same number of fixed-interface modes, as a ratio in the same run.
 
 Target (issue 2): the production assembly (~150 k DOF, simple joints) from geometry to
 reduced body in under 60 s on this 2-core machine. Times on a shared machine are noisy:
-the load average is printed with the results; compare ratios within one run.
+the load average is printed with the results; compare ratios within one run. The table's
+figures go with date, commit and load to ``benchmarks/results/bench_reduction.json``
+(``--no-results``: not written).
 """
 
 from __future__ import annotations
@@ -34,7 +36,12 @@ def main() -> None:
     parser.add_argument("--meshes", nargs="+", default=["coarse", "production"])
     parser.add_argument("--joints", nargs="+", default=["simple", "detailed"], choices=["simple", "detailed"])
     parser.add_argument("--exudyn-hcb", action="store_true", help="also time Exudyn's own HCB")
+    parser.add_argument("--no-results", action="store_true", help="do not write benchmarks/results/*.json")
     args = parser.parse_args()
+    from results import start_run, write_results  # benchmarks/results.py, beside this script
+
+    run = start_run()
+    hcb = {}
     rows = []
     timed: dict[tuple[str, str], str] = {}
     print(f"load average at start: {os.getloadavg()[0]:.2f} (1 min), {os.getloadavg()[1]:.2f} (5 min)")
@@ -87,6 +94,8 @@ def main() -> None:
                     nEigenModes=int(body.fixed_interface_frequencies_hz.size),
                     computationMode=HCBstaticModeSelection.RBE2, excludeRigidBodyMotion=False)
                 t_exu = time.perf_counter() - t0
+                hcb[f"{joints}/{mesh}"] = {"exudyn_s": t_exu, "ours_s": t["reduction"],
+                                           "ratio": t_exu / t["reduction"]}
                 print(f"  Exudyn ComputeHurtyCraigBamptonModes: {t_exu:.1f} s (ours: {t['reduction']:.1f} s "
                       f"incl. orthogonalisation; ratio {t_exu / t['reduction']:.1f}x)")
     print("\n| joints | mesh | DOF | mesh [s] | assembly [s] | reduction [s] | FFRF terms [s] | total [s] "
@@ -95,6 +104,11 @@ def main() -> None:
     for r in rows:
         print(f"| {r[0]} | {r[1]} | {r[2]} | {r[3]:.1f} | {r[4]:.1f} | {r[5]:.1f} | {r[6]:.1f} | {r[7]:.1f} "
               f"| {r[8]:.3f} | {r[9]:.2f} |")
+    if not args.no_results:
+        names = ("joints", "mesh", "dof", "mesh_s", "assembly_s", "reduction_s", "ffrf_terms_s", "total_s",
+                 "cache_hit_s", "load_1min")
+        figures = {"rows": [dict(zip(names, r, strict=True)) for r in rows], "exudyn_hcb": hcb or None}
+        print(f"key figures {write_results('bench_reduction', figures, args=args, start=run)}")
 
 
 if __name__ == "__main__":

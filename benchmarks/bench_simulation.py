@@ -1,7 +1,7 @@
 """Benchmark: time simulation of the rig models (issue 3), speed and accuracy in one run.
 
 ``python benchmarks/bench_simulation.py [--models mini model1] [--mesh production] [--exudyn-seconds 5]
-[--duration 80]``
+[--duration 80] [--no-results]``
 
 Per model (``mini``: the test frame of ``tests/rig_fixtures.py``; ``model1``/``model2``/
 ``model3``: the chassis of ``--mesh`` from the body cache, all modes):
@@ -9,16 +9,15 @@ Per model (``mini``: the test frame of ``tests/rig_fixtures.py``; ``model1``/``m
 1. **Linear path** (exact discretisation of the linearised system): an 80 s white-noise
    run, simulated seconds per wall and per CPU second (target >= 100x real time); it is
    the reference of every error below. ``--linear-only``: then, with one BLAS thread, the
-   default drive against the plain cubic spline through the 1 kHz samples
-   (``Drive(upsampling=1)``, the representation before the band-limited reconstruction),
-   and nothing else.
+   default drive (band-limited reconstruction) against the plain cubic spline through the
+   1 kHz samples (``Drive(upsampling=1)``), and nothing else.
 2. **Exudyn, full model** (rig joints, prescribed drive, linear CMS bodies,
    generalised-alpha): ``--exudyn-seconds`` of the same drive at the default settings
-   (h = 1/10 ms, rho_infinity 0.5), *before* (rigid super-element markers on the rig's
-   spherical joints, Newton relative tolerance 1e-8) and *after* (position markers,
-   relative tolerance 1e-6, the defaults; and with ``single_iteration=True``, one
-   Newton iteration per step); speed (real-time factor, us per step, Newton
-   iterations per step) and band-limited (< 70 Hz) rms error per channel against the
+   (h = 1/10 ms, rho_infinity 0.5), with rigid super-element markers on the rig's
+   spherical joints and Newton relative tolerance 1e-8 (slow; ``--skip-rigid-markers``
+   leaves it out) and with position markers and relative tolerance 1e-6 (the defaults; and
+   with ``single_iteration=True``, one Newton iteration per step); speed (real-time factor,
+   us per step, Newton iterations per step) and band-limited (< 70 Hz) rms error per channel against the
    exact linear solution (targets: 3 %, at least real time). Then the same model with
    constant-matrix bodies (``element='matrix'``: ``ObjectGenericODE2`` with the interface
    motions as coordinates, the rig's parts on Lie-group nodes, so every mass matrix is
@@ -34,7 +33,8 @@ Per model (``mini``: the test frame of ``tests/rig_fixtures.py``; ``model1``/``m
    narrower than the resolution.
 
 CPU time is printed next to wall time: the machine is shared (load average in the header);
-compare speeds as ratios within one run.
+compare speeds as ratios within one run. The figures of each step go with date, commit and load
+to ``benchmarks/results/bench_simulation.json`` (``--no-results``: not written).
 """
 
 from __future__ import annotations
@@ -102,7 +102,7 @@ def bench(name: str, args) -> dict:
     w0, c0 = time.perf_counter(), time.process_time()
     ref = simulate_linear(lin, model.drive)
     wall, cpu = time.perf_counter() - w0, time.process_time() - c0
-    res["linear_rt"] = (args.duration / wall, args.duration / cpu)
+    res["linear"] = {"real_time_wall": args.duration / wall, "real_time_cpu": args.duration / cpu}
     print(f"[1] linear path, {args.duration:.0f} s, drive upsampling {model.drive.upsampling}: "
           f"{wall:.2f} s wall, {cpu:.2f} s CPU -> {args.duration / wall:.0f}x / {args.duration / cpu:.0f}x "
           "real time", flush=True)
@@ -123,10 +123,13 @@ def bench(name: str, args) -> dict:
                     t = (time.perf_counter() - w0, time.process_time() - c0)
                     best[factor] = (min(best[factor][0], t[0]), min(best[factor][1], t[1]))
         for factor, (wall, cpu) in best.items():
+            res[f"linear_one_blas_thread_upsampling_{factor}"] = {
+                "real_time_wall": args.duration / wall, "real_time_cpu": args.duration / cpu}
             print(f"[1] linear path, one BLAS thread, best of 3, drive upsampling {factor}: "
                   f"{wall:.2f} s wall, {cpu:.2f} s CPU -> {args.duration / wall:.0f}x / "
                   f"{args.duration / cpu:.0f}x real time")
-        print(f"    after/before (upsampling {model.drive.upsampling} / 1): wall "
+        res["plain_spline_max_error"] = float(np.max(band_limited_rms_error(y, ref)))
+        print(f"    default/plain spline (upsampling {model.drive.upsampling} / 1): wall "
               f"{best[model.drive.upsampling][0] / best[1][0]:.2f}, CPU "
               f"{best[model.drive.upsampling][1] / best[1][1]:.2f}; the plain spline's response differs from "
               f"the default's by {fmt(band_limited_rms_error(y, ref))} (< 70 Hz rms)", flush=True)
@@ -141,10 +144,13 @@ def bench(name: str, args) -> dict:
     position_marker = rig_module.position_marker
     superelement = {"exudyn_mesh": "used"}
     matrix = {"element": "matrix"}
-    runs = (("before: rigid markers on spherical joints, Newton rtol 1e-8",
-             lambda mbs, marker: marker, IntegratorSettings(relative_tolerance=1e-8), superelement),
-            ("after: position markers, defaults", position_marker, IntegratorSettings(), superelement),
-            ("after: position markers, one Newton iteration per step", position_marker,
+    def rigid_marker(mbs, marker):
+        return marker
+
+    runs = (("rigid markers on spherical joints, Newton rtol 1e-8",
+             rigid_marker, IntegratorSettings(relative_tolerance=1e-8), superelement),
+            ("position markers, defaults", position_marker, IntegratorSettings(), superelement),
+            ("position markers, one Newton iteration per step", position_marker,
              IntegratorSettings(single_iteration=True), superelement),
             ("constant-matrix bodies (element='matrix'), defaults", position_marker, IntegratorSettings(),
              matrix),
@@ -153,7 +159,7 @@ def bench(name: str, args) -> dict:
             ("constant-matrix bodies, one Newton iteration per step", position_marker,
              IntegratorSettings(step_s=1.25e-4, single_iteration=True), matrix))
     for label, marker_fn, settings, kw in runs:
-        if label.startswith("before") and args.skip_before:
+        if marker_fn is rigid_marker and args.skip_rigid_markers:
             continue
         if kw is superelement and args.skip_superelement:
             continue
@@ -171,8 +177,10 @@ def bench(name: str, args) -> dict:
               f"per step, {st.get('newton_iterations', 0) / st['steps']:.2f} Newton it/step; error < 70 Hz "
               f"{fmt(e)}; per channel "
               + " ".join(f"{n}={100 * v:.1f}" for n, v in zip(lin.sensor_names, e, strict=True)), flush=True)
-        res[f"exudyn_{label}_{settings.step_s}"] = (st["real_time_factor"], st["cpu_real_time_factor"],
-                                                    float(np.max(e)))
+        res[f"exudyn {label}, h {settings.step_s:g} s"] = {
+            "real_time_wall": st["real_time_factor"], "real_time_cpu": st["cpu_real_time_factor"],
+            "newton_iterations_per_step": st.get("newton_iterations", 0) / st["steps"],
+            "max_error": float(np.max(e))}
 
     for h in args.reduced_steps:
         y, st = simulate_exudyn_reduced(lin, model.drive, IntegratorSettings(step_s=h))
@@ -180,7 +188,9 @@ def bench(name: str, args) -> dict:
         print(f"[3] Exudyn reduced, h = {1e3 * h:.4g} ms, {args.duration:.0f} s: {st['real_time_factor']:.2f}x wall / "
               f"{st['cpu_real_time_factor']:.2f}x CPU real time; error < 70 Hz {fmt(e)}; per channel "
               + " ".join(f"{n}={100 * v:.1f}" for n, v in zip(lin.sensor_names, e)), flush=True)
-        res[f"reduced_{h}"] = (st["real_time_factor"], st["cpu_real_time_factor"], float(np.max(e)))
+        res[f"exudyn reduced, h {h:g} s"] = {"real_time_wall": st["real_time_factor"],
+                                              "real_time_cpu": st["cpu_real_time_factor"],
+                                              "max_error": float(np.max(e))}
 
     for j in range(min(3, modes.frequency_hz.size)):
         st0 = modal_initial_state(modes, j)
@@ -193,6 +203,9 @@ def bench(name: str, args) -> dict:
         y, _ = simulate_exudyn_reduced(lin, model.drive, IntegratorSettings(step_s=0.125e-3), initial_state=st0)
         z_ex, f_ex = log_decrement_damping(y[ch])
         zt = modes.damping_ratio[j]
+        res.setdefault("free_decay", []).append({
+            "frequency_hz": modes.frequency_hz[j], "damping_ratio": zt, "log_decrement_exact": z_lin,
+            "log_decrement_exudyn_reduced": z_ex})
         print(f"[4] free decay mode {j + 1} ({modes.frequency_hz[j]:.2f} Hz, zeta {100 * zt:.3f} %) at "
               f"{lin.sensor_names[ch]}: log decrement exact {100 * z_lin:.3f} % ({100 * (z_lin / zt - 1):+.2f} %), "
               f"Exudyn reduced h=1/8 ms {100 * z_ex:.3f} % ({100 * (z_ex / zt - 1):+.2f} %)", flush=True)
@@ -211,6 +224,12 @@ def bench(name: str, args) -> dict:
         print(f"    without the resonances narrower than the resolution ({', '.join(f'{v:.2f}' for v in narrow)} Hz):"
               f" {int(np.sum(err2 <= 1.0))}/{err2.size} channels within 1 dB, max {np.nanmax(err2):.2f} dB")
     err3 = frf_db_error(hh, frf_linear_at_resolution(lin, f), f)
+    res["frf"] = {
+        "channels": int(err.size), "channels_within_1db": int(np.sum(err <= 1.0)),
+        "max_db": float(np.nanmax(err)), "median_db": float(np.nanmedian(err)),
+        "without_narrow_peaks_within_1db": int(np.sum(err2 <= 1.0)),
+        "windowed_model_within_1db": int(np.sum(err3 <= 1.0)),
+        "windowed_model_max_db": float(np.nanmax(err3))}
     print(f"    vs the modal FRF seen through the same Hann window (estimator bias removed): "
           f"{int(np.sum(err3 <= 1.0))}/{err3.size} channels within 1 dB, max {np.nanmax(err3):.2f} dB, "
           f"median {np.nanmedian(err3):.2f} dB")
@@ -224,17 +243,25 @@ def main(argv=None) -> int:
     p.add_argument("--duration", type=float, default=80.0)
     p.add_argument("--exudyn-seconds", type=float, default=5.0)
     p.add_argument("--reduced-steps", type=float, nargs="+", default=[1e-3, 1.0 / 8e3, 1.0 / 16e3, 1.0 / 32e3])
-    p.add_argument("--skip-before", action="store_true", help="skip the whole-patch Exudyn run (slow)")
+    p.add_argument("--skip-rigid-markers", action="store_true",
+                   help="skip the Exudyn run with rigid markers on the spherical joints (slow)")
     p.add_argument("--linear-only", action="store_true",
                    help="only the linear path, with the default drive and the plain spline (upsampling 1)")
     p.add_argument("--matrix-seconds", type=float, default=None,
                    help="simulated seconds of the element='matrix' runs (default --duration)")
     p.add_argument("--skip-superelement", action="store_true",
                    help="only the constant-matrix Exudyn runs (no super-element runs)")
+    p.add_argument("--no-results", action="store_true", help="do not write benchmarks/results/*.json")
     args = p.parse_args(argv)
+    from results import start_run, write_results  # benchmarks/results.py, beside this script
+
+    run = start_run()
     print(f"load average {os.getloadavg()}, {os.cpu_count()} cores", flush=True)
+    figures = {}
     for name in args.models:
-        bench(name, args)
+        figures[name] = bench(name, args)
+    if not args.no_results:
+        print(f"key figures {write_results('bench_simulation', figures, args=args, start=run)}")
     return 0
 
 

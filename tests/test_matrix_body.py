@@ -86,8 +86,8 @@ def test_matrix_element_time_integration_agrees_with_the_exact_linear_solution()
 def test_drive_offsets_per_step_give_the_python_offset_results(monkeypatch):
     """The drive prescribed once per step (symbolic offset) equals the Python offset function's run."""
     from exudyn_study import simulate as sim
-    from exudyn_study.simulate import exudyn_path
     from exudyn_study.model import build_model_from_bodies
+    from exudyn_study.simulate import exudyn_path
 
     model = build_model_from_bodies(mini_bodies(), 1, damping="constant-2", sensors=FRAME_SENSORS,
                                     element="matrix")

@@ -81,7 +81,7 @@ def test_pairing_is_one_to_one_and_reports_extra_and_missing():
 def test_linearised_truth_modes_where_the_fit_put_them():
     """Real Model 3 bodies (cache): the system modes of the fitted truth.
 
-    Regression values of the fit (``THESIS_FIT``; exudyn_study.linear.modes.system_modes, 0-60 Hz),
+    Regression values of the fitted truth (docs/thesis-truth.md; exudyn_study.model.system_modes, 0-60 Hz),
     with 2 % on frequency. Free (drive held): the tank sway at 11.7 Hz, the tank/bracket
     cluster at 12.8-15.7 Hz (Model 3 with fixed joints: tanks at 22 and 26 Hz), the wall mode at
     18.5 Hz (22 %), the frame yaw at 21.0 Hz, the linkage resonance mixed with the tanks' fore-aft
@@ -169,8 +169,8 @@ def test_a_mode_table1_lacks_stays_extra_instead_of_shifting_the_pairs():
 
 def test_the_truth_has_the_water_and_the_fore_aft_support_and_the_dry_one_has_not():
     """``thesis`` and ``thesis-iso``: the dry truth's entries plus the water's slosh dampers on both tanks
-    (lateral factor below 1) and a longitudinal compliance at both rear supports; ``thesis-dry`` (the
-    session-6 truth) has neither; all within their entries' bounds."""
+    (lateral factor below 1) and a longitudinal compliance at both rear supports; ``thesis-dry`` has
+    neither; all within their entries' bounds."""
     from exudyn_study.virtual_rig.thesis import (
         THESIS_DRY_PARAMETERS,
         THESIS_DRY_SCENARIO,

@@ -122,7 +122,7 @@ def run(args: argparse.Namespace) -> int:
     if len(target) == 0:
         raise InputError(f"--target {args.target!r}: the file holds no modes")
     try:
-        from exudyn_study.model import build_model
+        from exudyn_study.model.variants import build_model
     except ImportError as exc:
         raise StudyError(
             f"the rig models (exudyn_study.model.build_model) are not available: {exc}"

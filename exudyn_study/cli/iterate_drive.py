@@ -133,7 +133,7 @@ def _run(args: argparse.Namespace) -> int:
 
     t0 = time.perf_counter()
     from exudyn_study.bodies.spec import parse_mesh
-    from exudyn_study.model import build_model
+    from exudyn_study.model.variants import build_model
     from exudyn_study.signals.drive_iteration import target_from_recording
     from exudyn_study.signals.drives import resample
     from exudyn_study.simulate.drive import OUTPUT_RATE_HZ

@@ -98,13 +98,13 @@ class RigDiagnosisSettings:
     # its prior start (Hypothesis.prior); the lower training residual wins
     composite_prior_start: bool = True
     # and a third time with every member at its prior start (needs composite_prior_start). On the thesis
-    # truth (session 15, then named thesis-table1) it takes round 1 from 0.922 to 0.465 and the diagnosis
-    # then finds the pad; without it the pad is not found. On by default since session 16
+    # truth the other two starts leave round 1 in a basin where the pad is not found; this one reaches the
+    # truth's basin
     composite_all_prior_start: bool = True
     polish_nfev: int = 8  # function evaluations of that time-domain polish
     # in such a round, if no candidate explains enough alone: fit the best-screened linear
-    # candidates (at most this many, at different places) together (8 until the two tanks' water and
-    # the fore-aft rear supports became candidates: the water then took the pad's place in round 1)
+    # candidates (at most this many, at different places) together (with both tanks' water and the
+    # rear supports' fore-aft stiffness among the candidates, 8 let the water take the pad's place in round 1)
     composite_max: int = 10
     fit_nfev_composite: int = 40
     # the joint fit's connectors (joints, pad) fit their damping times too (exact, bilinear)
@@ -886,8 +886,8 @@ def _final_refit(
         h.start = np.clip(h.fit_values(values), *inside)
     labels = [r["h"].label for r in members]
     # a parameter that ended at a bound in its round was not determined by the data; held, it stays there
-    # (freed, it may wander on the noise: a rigid support's fore-aft stiffness went to 2e5 N/m, the refit
-    # worsened the held-out error and was not adopted, and the vertical stiffnesses it had corrected were
+    # (freed, it may wander on the noise: a rigid support's fore-aft stiffness can go to 2e5 N/m, the refit
+    # then worsens the held-out error and is not adopted, and the vertical stiffnesses it corrects are
     # lost; the caller tries the free refit first and this one when that is not adopted)
     free, holdable = {}, []
     for k, r in enumerate(members):

@@ -488,12 +488,11 @@ PAD_NAMES = (
     "damping_time_s",
 )
 #: the ones the diagnosis fits; the others are tied as in a bonded block (rocking about z equal to the
-#: compression modulus, torsion to the shear modulus). All six were tried on the thesis scenario
-#: (session 6): the joint fits then ended with the compression and torsion moduli at their bounds and the
-#: right rear support missed (held-out 0.64/0.79 against 0.48/0.42 with three). The rocking about x is
-#: free (session 8): it sets the bracket's vertical mode apart from its compression; tied, a pad that
-#: rocks at 0.45 of its compression modulus (the thesis truth) left the bracket's modes so far off that
-#: the pad's cubic hardening explained 5 % of the level-dependent share, free 77 % (truth's pad: 93 %)
+#: compression modulus, torsion to the shear modulus): with all six free, the joint fits on the thesis
+#: scenario run the compression and torsion moduli to their bounds and miss a rear support. The rocking
+#: about x is free: it sets the bracket's vertical mode apart from its compression; tied, a pad that rocks
+#: at 0.45 of its compression modulus (the thesis truth) leaves the bracket's modes so far off that the
+#: pad's cubic hardening explains only a small part of the level-dependent share
 PAD_FREE = (
     "shear_modulus_increase_pa",
     "compression_modulus_increase_pa",

@@ -14,7 +14,8 @@ applied to it, and the measurement chain (servo drive and acquisition,
     compliant drive linkage (the ~28 Hz resonance of Section 7.1) and per-body damping; its
     EMA gives Table 1 (see :data:`THESIS_TABLE1` and :mod:`exudyn_study.virtual_rig.thesis`);
 ``thesis-iso``, ``thesis-dry``
-    earlier thesis truths (tank mounts equally stiff on all axes; the same without the water);
+    variants of the thesis truth (tank mounts equally stiff on all axes and no wall mode; the
+    same without the water);
 one single-effect scenario per catalogue entry
     named after the entry, nominal model + that entry at a documented place.
 
