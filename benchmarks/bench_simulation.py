@@ -96,7 +96,7 @@ def bench(name: str, args) -> dict:
     modes = system_modes(model, lin, max_frequency_hz=100.0)
     print(f"build + linearise: {time.perf_counter() - t0:.1f} s; {lin.size} independent coordinates, "
           f"{len(model.sensors)} sensors; modes < 100 Hz: "
-          + ", ".join(f"{f:.1f} Hz/{100 * z:.2f} %" for f, z in zip(modes.frequency_hz, modes.damping_ratio)))
+          + ", ".join(f"{f:.1f} Hz/{100 * z:.2f} %" for f, z in zip(modes.frequency_hz, modes.damping_ratio, strict=False)))
     x = prepare_drive("white-noise", args.duration, seed=1)
     model.drive.set_signal(x, 1000.0)
     w0, c0 = time.perf_counter(), time.process_time()
@@ -187,7 +187,7 @@ def bench(name: str, args) -> dict:
         e = band_limited_rms_error(y, ref)
         print(f"[3] Exudyn reduced, h = {1e3 * h:.4g} ms, {args.duration:.0f} s: {st['real_time_factor']:.2f}x wall / "
               f"{st['cpu_real_time_factor']:.2f}x CPU real time; error < 70 Hz {fmt(e)}; per channel "
-              + " ".join(f"{n}={100 * v:.1f}" for n, v in zip(lin.sensor_names, e)), flush=True)
+              + " ".join(f"{n}={100 * v:.1f}" for n, v in zip(lin.sensor_names, e, strict=False)), flush=True)
         res[f"exudyn reduced, h {h:g} s"] = {"real_time_wall": st["real_time_factor"],
                                               "real_time_cpu": st["cpu_real_time_factor"],
                                               "max_error": float(np.max(e))}
@@ -219,7 +219,7 @@ def bench(name: str, args) -> dict:
     print(f"[5] FRF (linear run, H1, df = {f[1] - f[0]:.3f} Hz) vs modal FRF, max dB error 3.5-59 Hz outside "
           f"antiresonances: max {np.nanmax(err):.2f} dB, median {np.nanmedian(err):.2f} dB; "
           f"{int(np.sum(err <= 1.0))}/{err.size} channels within 1 dB")
-    print("    per channel: " + " ".join(f"{n}={v:.2f}" for n, v in zip(lin.sensor_names, err)))
+    print("    per channel: " + " ".join(f"{n}={v:.2f}" for n, v in zip(lin.sensor_names, err, strict=False)))
     if narrow.size:
         print(f"    without the resonances narrower than the resolution ({', '.join(f'{v:.2f}' for v in narrow)} Hz):"
               f" {int(np.sum(err2 <= 1.0))}/{err2.size} channels within 1 dB, max {np.nanmax(err2):.2f} dB")

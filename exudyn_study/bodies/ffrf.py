@@ -88,7 +88,7 @@ def _fem_interface(body: ReducedBody):
     fem.stiffnessMatrix = body.stiffness_matrix
     fem.nodeSets = [
         {"Name": name, "NodeNumbers": nodes, "NodeWeights": weights, "type": "boundary"}
-        for name, nodes, weights in zip(body.interface_names, body.interface_nodes, body.interface_weights)
+        for name, nodes, weights in zip(body.interface_names, body.interface_nodes, body.interface_weights, strict=False)
     ]
     fem.modeBasis = {"matrix": np.asarray(body.mode_basis), "type": "HCBmodes"}
     fem.eigenValues = (2.0 * math.pi * np.asarray(body.frequencies_hz)) ** 2
@@ -344,7 +344,7 @@ def add_flexible_body(
     markers, positions = {}, {}
     offset = np.asarray(position_m, dtype=float)
     for itf_name, nodes, weights, center in zip(
-        body.interface_names, body.interface_nodes, body.interface_weights, body.interface_centers_m
+        body.interface_names, body.interface_nodes, body.interface_weights, body.interface_centers_m, strict=False
     ):
         markers[itf_name] = mbs.AddMarker(
             eii.MarkerSuperElementRigid(

@@ -217,7 +217,7 @@ def _from_arrays(a: dict[str, np.ndarray]) -> tuple[ReducedBody, FFRFData]:
         return tuple(values[offsets[i] : offsets[i + 1]] for i in range(len(offsets) - 1))
 
     regions = [str(r) for r in a["region_names"]]
-    region_nodes = dict(zip(regions, split(a["region_nodes"], a["region_offsets"])))
+    region_nodes = dict(zip(regions, split(a["region_nodes"], a["region_offsets"]), strict=False))
     body = ReducedBody(
         name=str(a["name"]),
         node_positions_m=a["node_positions_m"],
@@ -229,7 +229,7 @@ def _from_arrays(a: dict[str, np.ndarray]) -> tuple[ReducedBody, FFRFData]:
         interface_weights=split(a["interface_weights"], a["interface_offsets"]),
         interface_centers_m=a["interface_centers_m"],
         region_nodes=region_nodes,
-        region_components=dict(zip(regions, (str(c) for c in a["region_component_names"]))),
+        region_components=dict(zip(regions, (str(c) for c in a["region_component_names"]), strict=False)),
         fixed_interface_frequencies_hz=a["fixed_interface_frequencies_hz"],
         n_static_modes=int(a["n_static_modes"]),
         total_mass_kg=float(a["total_mass_kg"]),

@@ -170,4 +170,4 @@ def pair_modal_models(model_modes: ModalModel, reference: ModalModel, min_mac: f
                    max_frequency_error=max_frequency_error)
     fm, fr = model_modes.frequency_hz, reference.frequency_hz
     return [ModePair(int(i), int(j), None if not use_shapes else float(m), float((fm[i] - fr[j]) / fr[j]))
-            for i, j, m in zip(p.model_index, p.target_index, p.mac)]
+            for i, j, m in zip(p.model_index, p.target_index, p.mac, strict=False)]

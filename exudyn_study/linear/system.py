@@ -18,7 +18,7 @@ TWO_PI = 2.0 * math.pi
 
 # --------------------------------------------------------------------------------------- linear path
 def spline_inputs(drive) -> np.ndarray:
-    """psi = (u, u', u'', u''') at the spline's knots (u''' of the interval starting there).
+    """Psi = (u, u', u'', u''') at the spline's knots (u''' of the interval starting there).
 
     Shape (4, (N - 1) upsampling + 1): the knots of the drive's fine grid (every
     ``drive.upsampling``-th is a sample instant).

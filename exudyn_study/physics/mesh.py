@@ -1,5 +1,4 @@
-"""Helpers of the catalogue entries for placing Exudyn items on a flexible body's mesh nodes.
-"""
+"""Helpers of the catalogue entries for placing Exudyn items on a flexible body's mesh nodes."""
 
 from __future__ import annotations
 

@@ -1,5 +1,4 @@
-"""The native HDF5 format of recordings (``format`` 'exudyn_study.recording').
-"""
+"""The native HDF5 format of recordings (``format`` 'exudyn_study.recording')."""
 
 from __future__ import annotations
 

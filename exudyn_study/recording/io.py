@@ -1,5 +1,4 @@
-"""The one read/write API of recordings: the format follows the file's suffix (``.h5``/``.hdf5`` or ``.uff``/``.unv``).
-"""
+"""The one read/write API of recordings: the format follows the file's suffix (``.h5``/``.hdf5`` or ``.uff``/``.unv``)."""
 
 from __future__ import annotations
 

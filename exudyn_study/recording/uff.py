@@ -1,5 +1,4 @@
-"""UFF58 (universal file, dataset 58) reading and writing of recordings, through pyuff.
-"""
+"""UFF58 (universal file, dataset 58) reading and writing of recordings, through pyuff."""
 
 from __future__ import annotations
 
