@@ -124,7 +124,8 @@ def test_no_private_name_is_imported_from_another_package():
     assert offenders == []
 
 
-@pytest.mark.parametrize("heavy, allowed", [("ngsolve", "exudyn_study.bodies.fe"), ("netgen", "exudyn_study.bodies.fe")])
+@pytest.mark.parametrize("heavy, allowed",
+                         [("ngsolve", "exudyn_study.bodies.fe"), ("netgen", "exudyn_study.bodies.fe")])
 def test_only_the_fe_package_imports_ngsolve(heavy, allowed):
     offenders = []
     for module, path in MODULES.items():
@@ -135,3 +136,45 @@ def test_only_the_fe_package_imports_ngsolve(heavy, allowed):
                 [node.module or ""] if isinstance(node, ast.ImportFrom) else []
             offenders += [f"{module}:{node.lineno}" for n in names if n.split(".")[0] == heavy]
     assert offenders == []
+
+
+PUBLIC_NAMES = {
+    "exudyn_study.model": ["build_model", "linearise", "system_modes"],
+    "exudyn_study.simulate": ["simulate"],
+    "exudyn_study.recording": ["read_recording", "write_recording", "Recording", "Channel"],
+    "exudyn_study.identify": ["identify_recording", "read_modes_json", "write_modes_json"],
+    "exudyn_study.bodies": ["flexible_body", "BodySpec"],
+    "exudyn_study.calibrate": ["calibrate", "DampingDesign", "system_from_model"],
+    "exudyn_study.physics": ["register", "entry", "CATALOGUE"],
+    "exudyn_study.diagnose": ["diagnose_rig", "diagnose_generic"],
+    "exudyn_study.sweep": ["run_sweep"],
+}
+
+
+@pytest.mark.parametrize("module", sorted(PUBLIC_NAMES))
+def test_public_names_are_importable_from_their_package(module):
+    import importlib
+
+    mod = importlib.import_module(module)
+    assert [n for n in PUBLIC_NAMES[module] if not hasattr(mod, n)] == []
+
+
+def _doc_python_blocks():
+    root = PACKAGE.parent
+    for path in [root / "README.md", *sorted((root / "docs").glob("*.md"))]:
+        text = path.read_text()
+        for block in text.split("```python")[1:]:
+            yield path.name, block.split("```")[0]
+
+
+@pytest.mark.parametrize("where, code", list(_doc_python_blocks()))
+def test_the_docs_python_examples_import_what_exists(where, code):
+    """Every ``from exudyn_study... import name`` in a README/docs example names something that exists."""
+    import importlib
+
+    missing = []
+    for node in ast.walk(ast.parse(code)):
+        if isinstance(node, ast.ImportFrom) and (node.module or "").startswith("exudyn_study"):
+            mod = importlib.import_module(node.module)
+            missing += [f"{node.module}.{a.name}" for a in node.names if not hasattr(mod, a.name)]
+    assert missing == [], where

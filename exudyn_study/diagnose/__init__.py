@@ -13,11 +13,12 @@ Both paths return a :class:`~exudyn_study.diagnose.schema.Diagnosis` (JSON schem
 
 :mod:`.report` writes the HTML report with figures, :mod:`.testbench` simulates a small
 two-beam structure with a bolted lap joint at several levels (a structure of our own for
-tests and benchmarks), :mod:`.cli` is the ``exudyn-study diagnose`` subcommand. Imports
-neither exudyn nor ngsolve.
+tests and benchmarks). The generic path imports neither exudyn nor ngsolve; the rig path
+imports exudyn when it runs.
 """
 
 from exudyn_study.diagnose.generic import GenericSettings, check_recordings, diagnose_generic
+from exudyn_study.diagnose.rig import RigDiagnosisSettings, diagnose_rig
 from exudyn_study.diagnose.rig_candidates import register_rig_candidate, unregister_rig_candidate
 from exudyn_study.diagnose.schema import Diagnosis, Finding, read_json
 
@@ -26,6 +27,8 @@ __all__ = [
     "Finding",
     "read_json",
     "diagnose_generic",
+    "diagnose_rig",
+    "RigDiagnosisSettings",
     "GenericSettings",
     "check_recordings",
     "register_rig_candidate",
