@@ -12,6 +12,7 @@ import dataclasses
 import logging
 import math
 import time
+from collections.abc import Callable
 from dataclasses import dataclass, field
 
 import numpy as np
@@ -21,6 +22,7 @@ from exudyn_study.bodies.materials import MATERIALS
 from exudyn_study.bodies.reduction import ReducedBody, ReductionSettings
 from exudyn_study.errors import InputError
 from exudyn_study.infra import cache
+from exudyn_study.infra.progress import StageProgress
 
 __all__ = ["BodySpec", "FlexibleBodyData", "flexible_body", "fe_model_and_interfaces", "BODY_KINDS"]
 
@@ -33,7 +35,12 @@ BODY_KINDS = ("chassis", "rear_foundation")
 
 
 #: Modules whose code determines a reduced body: a change in any of them changes the cache key.
-_SOURCE_MODULES = ("fe/chassis.py", "fe/assembly.py", "fe/solvers.py", "reduction.py", "ffrf.py", "materials.py")
+#: the stages of a body build, as its progress bar shows them
+BUILD_STAGES = ("mesh", "assembly", "reduction", "FFRF terms")
+
+_SOURCE_MODULES = (
+    "fe/chassis.py", "fe/assembly.py", "fe/solvers.py", "reduction.py", "ffrf.py", "materials.py",
+)
 
 
 def _source_digest() -> str:
@@ -112,7 +119,7 @@ class BodySpec:
         return mesh_parameters(self.mesh_size)
 
     def geometry(self):
-        """The :class:`~exudyn_study.bodies.fe.chassis.ChassisGeometry` of this body."""
+        """Return the :class:`~exudyn_study.bodies.fe.chassis.ChassisGeometry` of this body."""
         from exudyn_study.bodies.fe import chassis
 
         if self.kind == "rear_foundation":
@@ -168,15 +175,34 @@ class FlexibleBodyData:
     from_cache: bool
 
 
-def fe_model_and_interfaces(spec: BodySpec, timings: dict | None = None):
-    """Mesh and assemble the body of ``spec``; return ``(FEModel, interfaces)``."""
+def fe_model_and_interfaces(spec: BodySpec, timings: dict | None = None,
+                            stage: Callable[[str], None] | None = None):
+    """Mesh and assemble the body of ``spec``.
+
+    Parameters
+    ----------
+    spec : BodySpec
+        The body.
+    timings : dict, optional
+        Filled with the wall times (s) of ``mesh`` and ``assembly``.
+    stage : callable, optional
+        Called with ``"mesh"`` and ``"assembly"`` as each starts (progress display).
+
+    Returns
+    -------
+    (FEModel, list of Interface)
+        The assembled FE model and its RBE2 interfaces.
+    """
     from exudyn_study.bodies.fe.assembly import PartMaterial, assemble, interface_from_boundary
 
     timings = {} if timings is None else timings
+    stage = stage or (lambda name: None)
+    stage("mesh")
     t0 = time.perf_counter()
     geometry = spec.geometry()
     ngmesh = geometry.generate_mesh(**spec.mesh_parameters())
     timings["mesh"] = time.perf_counter() - t0
+    stage("assembly")
     t0 = time.perf_counter()
     parts = [PartMaterial(p.region, p.material, p.added_mass_kg, p.component) for p in geometry.parts]
     fe_model = assemble(ngmesh, parts)
@@ -264,16 +290,19 @@ def flexible_body(spec: BodySpec = BodySpec(), cache_dir=None, use_cache: bool =
     timings: dict[str, float] = {}
 
     def build() -> dict[str, np.ndarray]:
-        fe_model, interfaces = fe_model_and_interfaces(spec, timings)
-        t0 = time.perf_counter()
-        steps: dict[str, float] = {}
-        body = craig_bampton(fe_model, interfaces, spec.reduction, name=spec.name, timings=steps)
-        timings["reduction"] = time.perf_counter() - t0
-        timings.update({f"reduction.{k}": v for k, v in steps.items()})
-        timings["dof"] = float(fe_model.n_dof)
-        t0 = time.perf_counter()
-        ffrf = ffrf_data(body)
-        timings["ffrf_terms"] = time.perf_counter() - t0
+        with StageProgress(f"building flexible body {spec.name}", BUILD_STAGES) as progress:
+            fe_model, interfaces = fe_model_and_interfaces(spec, timings, progress.stage)
+            progress.stage("reduction")
+            t0 = time.perf_counter()
+            steps: dict[str, float] = {}
+            body = craig_bampton(fe_model, interfaces, spec.reduction, name=spec.name, timings=steps)
+            timings["reduction"] = time.perf_counter() - t0
+            timings.update({f"reduction.{k}": v for k, v in steps.items()})
+            timings["dof"] = float(fe_model.n_dof)
+            progress.stage("FFRF terms")
+            t0 = time.perf_counter()
+            ffrf = ffrf_data(body)
+            timings["ffrf_terms"] = time.perf_counter() - t0
         return _to_arrays(body, ffrf)
 
     t0 = time.perf_counter()

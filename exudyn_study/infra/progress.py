@@ -1,0 +1,99 @@
+"""Progress of long steps on stderr: a tqdm bar over named stages that keeps its clock running.
+
+A stage such as a sparse factorisation or an eigen-solve blocks for minutes without a chance to
+update a bar; :class:`StageProgress` refreshes its bar from a small background thread once a
+second, so the elapsed time keeps moving and the user sees the step is alive. The bar is off when
+stderr is not a terminal (tests, CI, logs) unless ``EXUDYN_STUDY_PROGRESS=1``, and always off with
+``EXUDYN_STUDY_PROGRESS=0`` (the CLI's ``--quiet``).
+"""
+
+from __future__ import annotations
+
+import os
+import sys
+import threading
+from collections.abc import Sequence
+
+from tqdm import tqdm
+
+__all__ = ["StageProgress", "progress_enabled"]
+
+#: seconds between refreshes of a bar whose stage is blocking
+REFRESH_S = 1.0
+
+
+def progress_enabled() -> bool | None:
+    """Return tqdm's ``disable`` argument for progress bars (None: on only when stderr is a terminal).
+
+    ``EXUDYN_STUDY_PROGRESS=0`` turns bars off, ``EXUDYN_STUDY_PROGRESS=1`` on even when stderr
+    is not a terminal.
+
+    Returns
+    -------
+    bool or None
+        Passed to ``tqdm(disable=...)``: True disables, None lets tqdm decide by the terminal.
+    """
+    setting = os.environ.get("EXUDYN_STUDY_PROGRESS", "").strip()
+    if setting == "0":
+        return True
+    if setting == "1":
+        return False
+    return None
+
+
+class StageProgress:
+    """A progress bar over named stages, refreshed once a second while a stage blocks.
+
+    Parameters
+    ----------
+    description : str
+        What is being done (the bar's label), e.g. ``"flexible body chassis"``.
+    stages : sequence of str
+        The stages in order; :meth:`stage` names the current one.
+
+    Examples
+    --------
+    >>> with StageProgress("body", ["mesh", "reduce"]) as p:   # doctest: +SKIP
+    ...     p.stage("mesh"); mesh()
+    ...     p.stage("reduce"); reduce()
+    """
+
+    def __init__(self, description: str, stages: Sequence[str]):
+        self.stages = tuple(stages)
+        self._bar = tqdm(total=len(self.stages), desc=description, file=sys.stderr,
+                         disable=progress_enabled(), leave=True,
+                         bar_format="{desc} [{elapsed}] stage {n_fmt}/{total_fmt}{postfix}")
+        self._stop = threading.Event()
+        self._thread: threading.Thread | None = None
+
+    def __enter__(self) -> StageProgress:
+        if not self._bar.disable:
+            self._thread = threading.Thread(target=self._heartbeat, daemon=True)
+            self._thread.start()
+        return self
+
+    def _heartbeat(self) -> None:
+        while not self._stop.wait(REFRESH_S):
+            self._bar.refresh()
+
+    def stage(self, name: str) -> None:
+        """Mark the stages before ``name`` as done and show ``name`` as the current one.
+
+        Parameters
+        ----------
+        name : str
+            One of the stages given to the constructor.
+        """
+        index = self.stages.index(name)
+        if index > self._bar.n:
+            self._bar.update(index - self._bar.n)
+        self._bar.set_postfix_str(name, refresh=True)
+
+    def __exit__(self, exc_type, exc, tb) -> None:
+        self._stop.set()
+        if self._thread is not None:
+            self._thread.join()
+        if exc_type is None:
+            self._bar.update(len(self.stages) - self._bar.n)
+            self._bar.set_postfix_str("done", refresh=True)
+        self._bar.close()
