@@ -27,6 +27,7 @@ import time
 from pathlib import Path
 
 from exudyn_study.errors import InputError
+from exudyn_study.infra.progress import StageProgress
 from exudyn_study.virtual_rig.scenario import Scenario
 from exudyn_study.virtual_rig.scenarios import scenario
 
@@ -191,10 +192,14 @@ def run_virtual_test(
     if not out.is_dir():
         raise InputError(f"--out {str(out_dir)!r}: directory does not exist; create it first")
     sc.validate()
-    model, applied = build_truth(sc, bodies=bodies, sensors=sensors, cache_dir=cache_dir)
+    runs = [(signal, level) for signal in signals for level in levels]
+    stages = ["truth model"] + [recording_name(sc.name, signal, level) for signal, level in runs]
     written = []
-    for signal in signals:
-        for level in levels:
+    with StageProgress(f"virtual test {sc.name}", stages) as progress:
+        progress.stage("truth model")
+        model, applied = build_truth(sc, bodies=bodies, sensors=sensors, cache_dir=cache_dir)
+        for signal, level in runs:
+            progress.stage(recording_name(sc.name, signal, level))
             rec = virtual_recording(sc, signal, duration_s, level, model=model)
             path = out / recording_name(sc.name, signal, level)
             write_recording(rec, path)
