@@ -208,13 +208,14 @@ def _checked_stats(out: np.ndarray, settings, mbs, wall: float, cpu: float, dura
     if bad.any():
         k = int(np.flatnonzero(bad.any(axis=0))[0])
         raise SimulationError(
-            f"the simulation diverged at t = {k / OUTPUT_RATE_HZ:.4f} s (sensor accelerations non-finite or above "
-            f"{settings.divergence_limit:g} m/s^2); try a smaller step")
+            f"the simulation diverged at t = {k / OUTPUT_RATE_HZ:.4f} s (sensor accelerations non-finite or "
+            f"above {settings.divergence_limit:g} m/s^2); try a smaller step")
     stats = {"wall_s": wall, "cpu_s": cpu, "real_time_factor": duration / wall if wall > 0 else float("inf"),
              "cpu_real_time_factor": duration / cpu if cpu > 0 else float("inf"), "steps": n_steps}
     solver = mbs.sys.get("dynamicSolver")
     if solver is not None:
-        stats.update(newton_iterations=int(solver.it.newtonStepsCount), jacobians=int(solver.it.newtonJacobiCount))
+        stats.update(newton_iterations=int(solver.it.newtonStepsCount),
+                     jacobians=int(solver.it.newtonJacobiCount))
     return stats
 
 
@@ -266,19 +267,7 @@ def simulate_exudyn(model, drive_samples: np.ndarray, settings: IntegratorSettin
     ss = _simulation_settings(settings, duration, constrained=n_ae > 0, length_scale_m=_length_scale(model))
     n_steps = ss.timeIntegration.numberOfSteps
     actions = []
-    bar = None
-    if progress:
-        from tqdm import tqdm
-
-        bar = tqdm(total=int(duration), unit="s", desc="exudyn", disable=None)
-        state = {"next": 1.0}
-
-        def show_progress(t):
-            if t >= state["next"]:
-                bar.update(1)
-                state["next"] += 1.0
-
-        actions.append(show_progress)
+    bar = _progress_action(duration, actions) if progress else None
     restore_drive = _drive_offsets_per_step(model, settings.step_s, n_steps, actions)
     previous = mbs.GetPreStepUserFunction()
     if actions:
@@ -303,24 +292,45 @@ def simulate_exudyn(model, drive_samples: np.ndarray, settings: IntegratorSettin
         restore_drive()
     wall = time.perf_counter() - t0
     cpu = time.process_time() - c0
+    out = _sensor_accelerations(model, drive_samples.size)
+    return out, _checked_stats(out, settings, mbs, wall, cpu, duration, n_steps)
+
+
+def _progress_action(duration_s: float, actions: list):
+    """Add a pre-step action that advances a tqdm bar once per simulated second; return the bar."""
+    from tqdm import tqdm
+
+    bar = tqdm(total=int(duration_s), unit="s", desc="exudyn", disable=None)
+    state = {"next": 1.0}
+
+    def show_progress(t):
+        if t >= state["next"]:
+            bar.update(1)
+            state["next"] += 1.0
+
+    actions.append(show_progress)
+    return bar
+
+
+def _sensor_accelerations(model, n_samples: int) -> np.ndarray:
+    """Read the sensors' stored accelerations along their directions, shape (n_sensors, n_samples)."""
+    mbs = model.mbs
     names = list(model.sensors)
-    out = np.empty((len(names), drive_samples.size))
+    out = np.empty((len(names), n_samples))
     cache = {}
     for i, name in enumerate(names):
         att = model.sensors[name]
         if att.exudyn_sensor not in cache:
-            data = np.asarray(mbs.GetSensorStoredData(att.exudyn_sensor))
-            cache[att.exudyn_sensor] = data
+            cache[att.exudyn_sensor] = np.asarray(mbs.GetSensorStoredData(att.exudyn_sensor))
         data = cache[att.exudyn_sensor]
-        if data.shape[0] < drive_samples.size:
-            raise SimulationError(
-                f"sensor {name}: {data.shape[0]} samples stored, expected {drive_samples.size}")
+        if data.shape[0] < n_samples:
+            raise SimulationError(f"sensor {name}: {data.shape[0]} samples stored, expected {n_samples}")
         coordinate_map = getattr(att, "coordinate_map", None)
         if coordinate_map is None:
-            out[i] = data[: drive_samples.size, 1:4] @ att.direction
+            out[i] = data[:n_samples, 1:4] @ att.direction
         else:  # coordinate accelerations of a constant-matrix body
-            out[i] = data[: drive_samples.size, 1:] @ (att.direction @ coordinate_map)
-    return out, _checked_stats(out, settings, mbs, wall, cpu, duration, n_steps)
+            out[i] = data[:n_samples, 1:] @ (att.direction @ coordinate_map)
+    return out
 
 
 def _drive_offsets_per_step(model, step_s: float, n_steps: int, actions: list):
