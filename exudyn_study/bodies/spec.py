@@ -33,7 +33,9 @@ BODY_KINDS = ("chassis", "rear_foundation")
 
 
 #: Modules whose code determines a reduced body: a change in any of them changes the cache key.
-_SOURCE_MODULES = ("fe/chassis.py", "fe/assembly.py", "fe/solvers.py", "reduction.py", "ffrf.py", "materials.py")
+_SOURCE_MODULES = (
+    "fe/chassis.py", "fe/assembly.py", "fe/solvers.py", "reduction.py", "ffrf.py", "materials.py",
+)
 
 
 def _source_digest() -> str:
@@ -112,7 +114,7 @@ class BodySpec:
         return mesh_parameters(self.mesh_size)
 
     def geometry(self):
-        """The :class:`~exudyn_study.bodies.fe.chassis.ChassisGeometry` of this body."""
+        """Return the :class:`~exudyn_study.bodies.fe.chassis.ChassisGeometry` of this body."""
         from exudyn_study.bodies.fe import chassis
 
         if self.kind == "rear_foundation":
@@ -169,7 +171,22 @@ class FlexibleBodyData:
 
 
 def fe_model_and_interfaces(spec: BodySpec, timings: dict | None = None):
-    """Mesh and assemble the body of ``spec``; return ``(FEModel, interfaces)``."""
+    """Mesh and assemble the body of ``spec``; return ``(FEModel, interfaces)``.
+
+    Parameters
+    ----------
+    spec : BodySpec
+        The body (kind, component, joint model, mesh size).
+    timings : dict, optional
+        If given, receives the wall times (s) under 'mesh' and 'assembly'.
+
+    Returns
+    -------
+    fe_model : FEModel
+        Mass and stiffness matrices and the mesh data.
+    interfaces : list of Interface
+        The body's interface patches, in the geometry's order.
+    """
     from exudyn_study.bodies.fe.assembly import PartMaterial, assemble, interface_from_boundary
 
     timings = {} if timings is None else timings
@@ -288,7 +305,23 @@ def flexible_body(spec: BodySpec = BodySpec(), cache_dir=None, use_cache: bool =
 
 
 def parse_mesh(text: str):
-    """'coarse', 'production' or a size in m."""
+    """Parse a mesh size: 'coarse', 'production' or a maximum element size in m.
+
+    Parameters
+    ----------
+    text : str
+        'coarse', 'production' or a number (m), e.g. from ``--mesh``.
+
+    Returns
+    -------
+    str or float
+        The name, or the element size (m).
+
+    Raises
+    ------
+    InputError
+        For any other text.
+    """
     from exudyn_study.errors import InputError
 
     if text in ("coarse", "production"):

@@ -5,7 +5,7 @@
 >>> model.assemble()                                       # doctest: +SKIP
 """
 
-from exudyn_study.model.linearisation import linearise
+from exudyn_study.model.linearisation import body_displacement_map, linearise, system_modes
 from exudyn_study.model.rig import Drive, RigHandles, RigParameters
 from exudyn_study.model.variants import (
     FORMULATIONS,

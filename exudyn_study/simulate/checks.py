@@ -16,7 +16,9 @@ from exudyn_study.errors import InputError
 from exudyn_study.simulate.drive import OUTPUT_RATE_HZ
 
 
-def band_limited_rms_error(x, reference, rate_hz: float = OUTPUT_RATE_HZ, f_max_hz: float = 70.0) -> np.ndarray:
+def band_limited_rms_error(
+    x, reference, rate_hz: float = OUTPUT_RATE_HZ, f_max_hz: float = 70.0
+) -> np.ndarray:
     """Relative rms error per channel of ``x`` vs ``reference`` below ``f_max_hz`` (FFT band limit).
 
     Both shape (n_channels, n_samples); returns shape (n_channels,).

@@ -208,13 +208,14 @@ def _checked_stats(out: np.ndarray, settings, mbs, wall: float, cpu: float, dura
     if bad.any():
         k = int(np.flatnonzero(bad.any(axis=0))[0])
         raise SimulationError(
-            f"the simulation diverged at t = {k / OUTPUT_RATE_HZ:.4f} s (sensor accelerations non-finite or above "
-            f"{settings.divergence_limit:g} m/s^2); try a smaller step")
+            f"the simulation diverged at t = {k / OUTPUT_RATE_HZ:.4f} s (sensor accelerations non-finite "
+            f"or above {settings.divergence_limit:g} m/s^2); try a smaller step")
     stats = {"wall_s": wall, "cpu_s": cpu, "real_time_factor": duration / wall if wall > 0 else float("inf"),
              "cpu_real_time_factor": duration / cpu if cpu > 0 else float("inf"), "steps": n_steps}
     solver = mbs.sys.get("dynamicSolver")
     if solver is not None:
-        stats.update(newton_iterations=int(solver.it.newtonStepsCount), jacobians=int(solver.it.newtonJacobiCount))
+        stats.update(newton_iterations=int(solver.it.newtonStepsCount),
+                     jacobians=int(solver.it.newtonJacobiCount))
     return stats
 
 

@@ -4,7 +4,8 @@
 
 1. the commanded drive (:mod:`exudyn_study.signals`, the scenario's seed and rms times ``level``);
 2. the achieved piston displacement: the command through the servo drive
-   (:func:`~exudyn_study.virtual_rig.measurement.servo_response`, drop-offs near 12 and 26 Hz, tracking error);
+   (:func:`~exudyn_study.virtual_rig.measurement.servo_response`, drop-offs near 12 and 26 Hz,
+   tracking error);
 3. the truth model: the scenario's nominal variant with its augmentations applied
    (:func:`build_truth`), simulated with the achieved drive (linear model + local
    nonlinearities, exact between sub-steps);

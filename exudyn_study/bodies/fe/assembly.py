@@ -277,7 +277,9 @@ def assemble(ngmesh, parts: Sequence[PartMaterial], *, order: int = 2, check: bo
         )
     unused = [r for r in by_region if r not in regions]
     if unused:
-        raise InputError(f"parts {unused} name regions that are not in the mesh (it has {sorted(set(regions))})")
+        raise InputError(
+            f"parts {unused} name regions that are not in the mesh (it has {sorted(set(regions))})"
+        )
 
     # region volumes, to smear added (non-structural) mass into the density
     volumes = {}
