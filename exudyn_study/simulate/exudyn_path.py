@@ -117,7 +117,19 @@ class IntegratorSettings:
                              "None (scale-aware)")
 
     def radius(self, constrained: bool) -> float:
-        """Return the spectral radius used: the given one or the path's default (``spectral_radius``)."""
+        """Return the spectral radius used: the given one or the path's default (``spectral_radius``).
+
+        Parameters
+        ----------
+        constrained : bool
+            True for the constrained full-model path (default :data:`CONSTRAINED_SPECTRAL_RADIUS`),
+            False for the reduced path (default 1, no numerical damping).
+
+        Returns
+        -------
+        float
+            Generalised-alpha spectral radius at infinity, in [0, 1].
+        """
         if self.spectral_radius is not None:
             return float(self.spectral_radius)
         return CONSTRAINED_SPECTRAL_RADIUS if constrained else 1.0

@@ -30,7 +30,19 @@ THESIS_TABLE1 = (
 
 @dataclass(frozen=True)
 class Augment:
-    """One catalogue entry applied at a location with parameters (SI, the entry's units)."""
+    """One catalogue entry applied at a location with parameters (SI, the entry's units).
+
+    Parameters
+    ----------
+    physics : str
+        Name of the catalogue entry (:func:`exudyn_study.physics.catalogue.entry`), e.g.
+        'joint_stiffness'.
+    location : str, optional
+        Where the entry applies (an interface, body or side the entry accepts); None for entries
+        with one place.
+    parameters : mapping str -> float
+        The entry's parameters by name, in its units (SI); missing ones take the entry's defaults.
+    """
 
     physics: str
     location: str | None = None

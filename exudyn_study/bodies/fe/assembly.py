@@ -156,6 +156,16 @@ class FEModel:
     def component_nodes(self, component: str) -> np.ndarray:
         """Node indices of all regions that belong to ``component`` (sorted, unique).
 
+        Parameters
+        ----------
+        component : str
+            Component name (a value of ``region_components``, e.g. 'frame', 'tank_left').
+
+        Returns
+        -------
+        ndarray of int
+            Mesh node indices.
+
         Raises
         ------
         InputError
@@ -170,6 +180,11 @@ class FEModel:
 
 def load_mesh(path: str | os.PathLike):
     """Read a Netgen volume mesh file (``.vol`` or ``.vol.gz``).
+
+    Parameters
+    ----------
+    path : str or os.PathLike
+        The mesh file.
 
     Returns
     -------
