@@ -124,7 +124,9 @@ def test_no_private_name_is_imported_from_another_package():
     assert offenders == []
 
 
-@pytest.mark.parametrize("heavy, allowed", [("ngsolve", "exudyn_study.bodies.fe"), ("netgen", "exudyn_study.bodies.fe")])
+@pytest.mark.parametrize(
+    "heavy, allowed", [("ngsolve", "exudyn_study.bodies.fe"), ("netgen", "exudyn_study.bodies.fe")]
+)
 def test_only_the_fe_package_imports_ngsolve(heavy, allowed):
     offenders = []
     for module, path in MODULES.items():
