@@ -96,7 +96,8 @@ def bench(name: str, args) -> dict:
     modes = system_modes(model, lin, max_frequency_hz=100.0)
     print(f"build + linearise: {time.perf_counter() - t0:.1f} s; {lin.size} independent coordinates, "
           f"{len(model.sensors)} sensors; modes < 100 Hz: "
-          + ", ".join(f"{f:.1f} Hz/{100 * z:.2f} %" for f, z in zip(modes.frequency_hz, modes.damping_ratio, strict=False)))
+          + ", ".join(f"{f:.1f} Hz/{100 * z:.2f} %"
+                      for f, z in zip(modes.frequency_hz, modes.damping_ratio, strict=False)))
     x = prepare_drive("white-noise", args.duration, seed=1)
     model.drive.set_signal(x, 1000.0)
     w0, c0 = time.perf_counter(), time.process_time()
@@ -173,8 +174,9 @@ def bench(name: str, args) -> dict:
         e = band_limited_rms_error(y, ref[:, : xr.size])
         print(f"[2] Exudyn full model, h = {1e3 * settings.step_s:.4g} ms, rho {settings.radius(True)}, "
               f"{(xr.size - 1) / 1000:.3g} s, {label}: {st['real_time_factor']:.3f}x wall / "
-              f"{st['cpu_real_time_factor']:.3f}x CPU real time, {1e6 * st['cpu_s'] / st['steps']:.0f} us CPU "
-              f"per step, {st.get('newton_iterations', 0) / st['steps']:.2f} Newton it/step; error < 70 Hz "
+              f"{st['cpu_real_time_factor']:.3f}x CPU real time, "
+              f"{1e6 * st['cpu_s'] / st['steps']:.0f} us CPU per step, "
+              f"{st.get('newton_iterations', 0) / st['steps']:.2f} Newton it/step; error < 70 Hz "
               f"{fmt(e)}; per channel "
               + " ".join(f"{n}={100 * v:.1f}" for n, v in zip(lin.sensor_names, e, strict=True)), flush=True)
         res[f"exudyn {label}, h {settings.step_s:g} s"] = {
@@ -185,8 +187,9 @@ def bench(name: str, args) -> dict:
     for h in args.reduced_steps:
         y, st = simulate_exudyn_reduced(lin, model.drive, IntegratorSettings(step_s=h))
         e = band_limited_rms_error(y, ref)
-        print(f"[3] Exudyn reduced, h = {1e3 * h:.4g} ms, {args.duration:.0f} s: {st['real_time_factor']:.2f}x wall / "
-              f"{st['cpu_real_time_factor']:.2f}x CPU real time; error < 70 Hz {fmt(e)}; per channel "
+        print(f"[3] Exudyn reduced, h = {1e3 * h:.4g} ms, {args.duration:.0f} s: "
+              f"{st['real_time_factor']:.2f}x wall / {st['cpu_real_time_factor']:.2f}x CPU real time; "
+              f"error < 70 Hz {fmt(e)}; per channel "
               + " ".join(f"{n}={100 * v:.1f}" for n, v in zip(lin.sensor_names, e, strict=False)), flush=True)
         res[f"exudyn reduced, h {h:g} s"] = {"real_time_wall": st["real_time_factor"],
                                               "real_time_cpu": st["cpu_real_time_factor"],
@@ -200,14 +203,16 @@ def bench(name: str, args) -> dict:
         from exudyn_study.linear.response import free_decay_linear
 
         z_lin, _ = log_decrement_damping(free_decay_linear(lin, st0, n)[ch])
-        y, _ = simulate_exudyn_reduced(lin, model.drive, IntegratorSettings(step_s=0.125e-3), initial_state=st0)
+        y, _ = simulate_exudyn_reduced(lin, model.drive, IntegratorSettings(step_s=0.125e-3),
+                                       initial_state=st0)
         z_ex, f_ex = log_decrement_damping(y[ch])
         zt = modes.damping_ratio[j]
         res.setdefault("free_decay", []).append({
             "frequency_hz": modes.frequency_hz[j], "damping_ratio": zt, "log_decrement_exact": z_lin,
             "log_decrement_exudyn_reduced": z_ex})
         print(f"[4] free decay mode {j + 1} ({modes.frequency_hz[j]:.2f} Hz, zeta {100 * zt:.3f} %) at "
-              f"{lin.sensor_names[ch]}: log decrement exact {100 * z_lin:.3f} % ({100 * (z_lin / zt - 1):+.2f} %), "
+              f"{lin.sensor_names[ch]}: log decrement exact {100 * z_lin:.3f} % "
+              f"({100 * (z_lin / zt - 1):+.2f} %), "
               f"Exudyn reduced h=1/8 ms {100 * z_ex:.3f} % ({100 * (z_ex / zt - 1):+.2f} %)", flush=True)
 
     model.drive.set_signal(x, 1000.0)
@@ -221,8 +226,9 @@ def bench(name: str, args) -> dict:
           f"{int(np.sum(err <= 1.0))}/{err.size} channels within 1 dB")
     print("    per channel: " + " ".join(f"{n}={v:.2f}" for n, v in zip(lin.sensor_names, err, strict=False)))
     if narrow.size:
-        print(f"    without the resonances narrower than the resolution ({', '.join(f'{v:.2f}' for v in narrow)} Hz):"
-              f" {int(np.sum(err2 <= 1.0))}/{err2.size} channels within 1 dB, max {np.nanmax(err2):.2f} dB")
+        print("    without the resonances narrower than the resolution "
+              f"({', '.join(f'{v:.2f}' for v in narrow)} Hz): {int(np.sum(err2 <= 1.0))}/{err2.size} "
+              f"channels within 1 dB, max {np.nanmax(err2):.2f} dB")
     err3 = frf_db_error(hh, frf_linear_at_resolution(lin, f), f)
     res["frf"] = {
         "channels": int(err.size), "channels_within_1db": int(np.sum(err <= 1.0)),
@@ -242,7 +248,8 @@ def main(argv=None) -> int:
     p.add_argument("--mesh", default="production", help="chassis mesh of model1-3 (coarse, production)")
     p.add_argument("--duration", type=float, default=80.0)
     p.add_argument("--exudyn-seconds", type=float, default=5.0)
-    p.add_argument("--reduced-steps", type=float, nargs="+", default=[1e-3, 1.0 / 8e3, 1.0 / 16e3, 1.0 / 32e3])
+    p.add_argument("--reduced-steps", type=float, nargs="+",
+                   default=[1e-3, 1.0 / 8e3, 1.0 / 16e3, 1.0 / 32e3])
     p.add_argument("--skip-rigid-markers", action="store_true",
                    help="skip the Exudyn run with rigid markers on the spherical joints (slow)")
     p.add_argument("--linear-only", action="store_true",

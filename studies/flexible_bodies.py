@@ -31,7 +31,8 @@ from exudyn_study.infra.atomic import write_text_atomic
 
 def main(argv=None) -> int:
     parser = argparse.ArgumentParser(description=__doc__.splitlines()[0])
-    parser.add_argument("--mesh", default="production", help="production (default), coarse or a max element size in m")
+    parser.add_argument("--mesh", default="production",
+                        help="production (default), coarse or a max element size in m")
     parser.add_argument("--out", default="out/flexible_bodies", help="output directory")
     args = parser.parse_args(argv)
     mesh = args.mesh if args.mesh in ("coarse", "production") else float(args.mesh)
@@ -48,7 +49,8 @@ def main(argv=None) -> int:
         fe_model, interfaces = fe_model_and_interfaces(spec)
         n_full = int(np.sum(data.body.frequencies_hz < 120.0)) + 2
         full = patched_full_model_frequencies(fe_model, interfaces, n_modes=n_full)
-        print(f"  full model: {fe_model.n_dof} DOF, {n_full} modes in {time.perf_counter() - t0:.1f} s", flush=True)
+        print(f"  full model: {fe_model.n_dof} DOF, {n_full} modes in {time.perf_counter() - t0:.1f} s",
+              flush=True)
         results[joint_model] = {
             "dof": fe_model.n_dof,
             "mass_kg": data.body.total_mass_kg,

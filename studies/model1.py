@@ -44,8 +44,8 @@ def save_table(modes, out: Path, stem: str, title: str) -> str:
         w.writerow(["mode", "undamped_frequency_hz", "frequency_hz", "damping_ratio_percent", "description"])
         for j in range(modes.frequency_hz.size):
             fu = modes.undamped_frequency_hz[j] if j < modes.undamped_frequency_hz.size else float("nan")
-            w.writerow([j + 1, f"{fu:.4f}", f"{modes.frequency_hz[j]:.4f}", f"{100 * modes.damping_ratio[j]:.4f}",
-                        modes.descriptions[j]])
+            w.writerow([j + 1, f"{fu:.4f}", f"{modes.frequency_hz[j]:.4f}",
+                        f"{100 * modes.damping_ratio[j]:.4f}", modes.descriptions[j]])
     print(title)
     print(modes_table(modes))
     return md
@@ -93,10 +93,12 @@ def run(variant: int, argv=None, title: str | None = None) -> tuple:
     out.mkdir(parents=True, exist_ok=True)
     t0 = time.perf_counter()
     model, modes = modes_of(variant, args.damping, args.mesh)
-    title = title or f"Model {variant} ({args.mesh} mesh, damping {args.damping}): first {N_MODES} system modes"
+    title = title or (f"Model {variant} ({args.mesh} mesh, damping {args.damping}): "
+                      f"first {N_MODES} system modes")
     save_table(modes, out, f"model{variant}", title)
     plot_shapes(modes, out / f"model{variant}_shapes.png", f"Model {variant}")
-    print(f"built, linearised and solved in {time.perf_counter() - t0:.0f} s; written to {out}/model{variant}_*")
+    print(f"built, linearised and solved in {time.perf_counter() - t0:.0f} s; "
+          f"written to {out}/model{variant}_*")
     return model, modes, args
 
 

@@ -49,10 +49,12 @@ if __name__ == "__main__":
     out = Path(args.out)
     _, modes3b = modes_of(3, args.damping, args.mesh, bushing=BushingParameters())
     save_table(modes3b, out, "model3_bushing",
-               f"Model 3 with 6-DOF bushings ({args.mesh} mesh, damping {args.damping}): first 10 system modes")
+               f"Model 3 with 6-DOF bushings ({args.mesh} mesh, damping {args.damping}): "
+               "first 10 system modes")
     plot_shapes(modes3b, out / "model3_bushing_shapes.png", "Model 3, bushings")
     _, modes1 = modes_of(1, args.damping, args.mesh)
     table = compare(modes1, modes3, modes3b)
-    text = "# Model 3 (fixed joints, bushings) vs Model 1, modes paired by MAC at the sensors\n\n" + table + "\n"
+    heading = "# Model 3 (fixed joints, bushings) vs Model 1, modes paired by MAC at the sensors"
+    text = heading + "\n\n" + table + "\n"
     (out / "model3_vs_model1.md").write_text(text)
     print(text)

@@ -157,7 +157,8 @@ def test_damage_subprocess(files, tmp_path):
     code = (
         "import sys\n"
         "import exudyn_study.recording, exudyn_study.model.sensors, exudyn_study.signals\n"
-        "import exudyn_study.signals.fatigue, exudyn_study.signals.fatigue_plots, exudyn_study.signals.drive_iteration\n"
+        "import exudyn_study.signals.fatigue, exudyn_study.signals.fatigue_plots\n"
+        "import exudyn_study.signals.drive_iteration\n"
         "roots = {m.split('.')[0] for m in sys.modules}\n"
         "bad = sorted(roots & {'exudyn', 'ngsolve', 'netgen'})\n"
         "assert not bad, bad\n"

@@ -57,7 +57,8 @@ def beam_body(beam_models):
 
 def cantilever_bending_hz(model) -> np.ndarray:
     """First three bending frequencies (one per pair of the square section) through the pipeline."""
-    body = craig_bampton(model, [interface_from_boundary(model, "clamp")], ReductionSettings(max_frequency_hz=1500.0))
+    body = craig_bampton(model, [interface_from_boundary(model, "clamp")],
+                         ReductionSettings(max_frequency_hz=1500.0))
     f = np.sort(body.fixed_interface_frequencies_hz)
     # square section: y and z bending pairs are degenerate; no torsion/axial mode below 1500 Hz
     assert f.size >= 6
@@ -239,7 +240,8 @@ def test_hcb_spans_same_space_as_exudyn_feminterface(beam_models, beam_body):
         excludeRigidBodyMotion=False,
     )
     psi = fem.modeBasis["matrix"]
-    lam = sla.eigh(psi.T @ (model.stiffness_matrix @ psi), psi.T @ (model.mass_matrix @ psi), eigvals_only=True)
+    lam = sla.eigh(psi.T @ (model.stiffness_matrix @ psi), psi.T @ (model.mass_matrix @ psi),
+                   eigvals_only=True)
     exudyn_hz = np.sqrt(np.abs(lam[6:])) / (2 * math.pi)
     np.testing.assert_allclose(beam_body.frequencies_hz, exudyn_hz, rtol=1e-6)
 

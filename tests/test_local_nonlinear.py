@@ -20,7 +20,9 @@ from exudyn_study.linear.response import simulate_linear
 from exudyn_study.linear.system import LinearSystem
 from exudyn_study.model.rig import Drive
 
-MASS_KG, STIFFNESS_N_PER_M, DAMPING_N_S_PER_M = 2.0, 2.0 * (2 * math.pi * 15.0) ** 2, 2.0 * 0.02 * 2.0 * 2 * math.pi * 15
+MASS_KG = 2.0
+STIFFNESS_N_PER_M = 2.0 * (2 * math.pi * 15.0) ** 2
+DAMPING_N_S_PER_M = 2.0 * 0.02 * 2.0 * 2 * math.pi * 15
 
 
 def _base_excited_sdof() -> LinearSystem:
@@ -39,8 +41,8 @@ def _base_excited_sdof() -> LinearSystem:
 def _drive(seconds=3.0, rate=1000.0, amplitude=2e-3, seed=3, noise_m=1e-4):
     rng = np.random.default_rng(seed)
     t = np.arange(int(seconds * rate)) / rate
-    u = amplitude * np.sin(2 * math.pi * 13.0 * t) * np.minimum(t / 0.5, 1.0) ** 2 + noise_m * rng.standard_normal(
-        t.size) * np.minimum(t / 0.5, 1.0) ** 2
+    ramp = np.minimum(t / 0.5, 1.0) ** 2
+    u = amplitude * np.sin(2 * math.pi * 13.0 * t) * ramp + noise_m * rng.standard_normal(t.size) * ramp
     d = Drive()
     d.set_signal(u, rate)
     return d, t

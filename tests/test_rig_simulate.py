@@ -111,7 +111,8 @@ def test_marker_node_subset_keeps_the_linearised_system():
     from exudyn_study.model import build_model_from_bodies
     from exudyn_study.model.linearisation import system_modes
 
-    full = build_model_from_bodies(mini_bodies(), 1, damping="constant-2", sensors=FRAME_SENSORS, marker_nodes=None)
+    full = build_model_from_bodies(mini_bodies(), 1, damping="constant-2", sensors=FRAME_SENSORS,
+                                   marker_nodes=None)
     fast = build_model_from_bodies(mini_bodies(), 1, damping="constant-2", sensors=FRAME_SENSORS,
                                    exudyn_mesh="used")
     assert len(fast.bodies["chassis"].mesh_node_map) < 60
@@ -155,7 +156,8 @@ def test_free_decay_log_decrement_matches_damped_eigenvalues(model_lin):
         st = modal_initial_state(modes, j)
         n = int(min(15.0, 20 / (2 * np.pi * modes.frequency_hz[j] * modes.damping_ratio[j])) * 1000)
         model.drive.set_signal(np.zeros(n), 1000.0)
-        y, _ = simulate_exudyn_reduced(lin, model.drive, IntegratorSettings(step_s=0.125e-3), initial_state=st)
+        y, _ = simulate_exudyn_reduced(lin, model.drive, IntegratorSettings(step_s=0.125e-3),
+                                       initial_state=st)
         ch = int(np.argmax(np.abs(modes.shapes[:, j])))
         zeta, f = log_decrement_damping(y[ch])
         assert zeta == pytest.approx(modes.damping_ratio[j], rel=0.02)
@@ -164,14 +166,15 @@ def test_free_decay_log_decrement_matches_damped_eigenvalues(model_lin):
 
 @pytest.mark.slow
 def test_white_noise_frf_matches_modal_frf(model_lin):
-    """Acceptance: H1 from an 80 s white-noise run vs the modal-superposition FRF, 1 dB outside antiresonances.
+    """Acceptance: H1 of an 80 s white-noise run vs the modal-superposition FRF, 1 dB outside antiresonances.
 
     On the channels that carry the response (the Y channel ARFVY, 0.1 m/s^2 rms against
     5-50 m/s^2 elsewhere, is off by several dB over 40-59 Hz: its response at 950-1050 Hz
     is ~97 dB above that at 45 Hz, and the cubic-spline drive's spectral images at
     1 kHz +- f, only ~106 dB down, alias into the 1 kHz samples - there is no
-    anti-aliasing filter in the simulated chain), and outside resonances narrower than the estimate's resolution (the
-    0.13 %-damped 29 Hz mode: half-power bandwidth 0.08 Hz, resolution 0.06 Hz: the peak
+    anti-aliasing filter in the simulated chain), and outside resonances narrower than the
+    estimate's resolution (the 0.13 %-damped 29 Hz mode: half-power bandwidth 0.08 Hz,
+    resolution 0.06 Hz: the peak
     is 1.2 dB low in any Welch estimate of this length).
     """
     from exudyn_study.linear.response import frf_linear, frf_linear_at_resolution, simulate_linear

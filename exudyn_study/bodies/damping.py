@@ -52,6 +52,18 @@ DampingFunction = Callable[[np.ndarray], np.ndarray]
 def validate_ratios(ratios: Sequence[float] | np.ndarray, what: str = "damping ratio") -> np.ndarray:
     """Return ``ratios`` as a float array; raise on NaN or values outside [0, 1).
 
+    Parameters
+    ----------
+    ratios : array_like of float
+        Damping ratios (fractions of critical damping, 0.02 for 2 %), any shape.
+    what : str
+        What the ratios are, for the error message (e.g. 'per-body damping ratio').
+
+    Returns
+    -------
+    ndarray
+        ``ratios`` as floats, same shape.
+
     Raises
     ------
     InputError
@@ -119,12 +131,39 @@ def adams_step(frequencies_hz, x0: float, h0: float, x1: float, h1: float) -> np
 
 
 def step_reference(frequencies_hz) -> np.ndarray:
-    """Scania's reference STEP damping: 16.6 % at 0 Hz to 100 % at 450 Hz (Figure 17)."""
+    """Scania's reference STEP damping: 16.6 % at 0 Hz to 100 % at 450 Hz (Figure 17).
+
+    Parameters
+    ----------
+    frequencies_hz : array_like
+        Mode frequencies (Hz), finite and >= 0.
+
+    Returns
+    -------
+    ndarray
+        Damping ratio per mode (clipped to :data:`MAX_RATIO`), shape of ``frequencies_hz``.
+    """
     return adams_step(frequencies_hz, 0.0, 0.166, 450.0, 1.0)
 
 
 def constant(ratio: float) -> DampingFunction:
-    """A damping function that gives every mode the same ``ratio``."""
+    """Return a damping function that gives every mode the same ``ratio``.
+
+    Parameters
+    ----------
+    ratio : float
+        Damping ratio of every mode, in [0, 1) (0.02 for 2 %).
+
+    Returns
+    -------
+    callable
+        ``f(frequencies_hz) -> ndarray`` of ``ratio``, shape of ``frequencies_hz``.
+
+    Raises
+    ------
+    InputError
+        For a ratio outside [0, 1).
+    """
     validate_ratios([ratio])
     return lambda frequencies_hz: np.full(np.shape(_frequencies(frequencies_hz)), float(ratio))
 
@@ -150,7 +189,23 @@ class PerBody:
             validate_ratios([self.default], "default damping ratio")
 
     def for_body(self, body: str) -> DampingFunction:
-        """The damping function of ``body``."""
+        """Return the damping function of ``body``.
+
+        Parameters
+        ----------
+        body : str
+            Flexible-body component name (a key of ``ratios``).
+
+        Returns
+        -------
+        callable
+            A :func:`constant` damping function of the body's ratio (or of ``default``).
+
+        Raises
+        ------
+        InputError
+            For a body not in the table when there is no ``default``.
+        """
         if body in self.ratios:
             return constant(self.ratios[body])
         if self.default is None:
@@ -206,6 +261,16 @@ DAMPING_FUNCTIONS: Mapping[str, DampingFunction] = MappingProxyType(
 def damping_function(name: str) -> DampingFunction:
     """Look up a named damping function.
 
+    Parameters
+    ----------
+    name : str
+        A key of :data:`DAMPING_FUNCTIONS` ('adams-default', 'step', 'constant-1', 'constant-2').
+
+    Returns
+    -------
+    callable
+        ``f(frequencies_hz) -> ndarray`` of damping ratios.
+
     Raises
     ------
     InputError
@@ -221,7 +286,23 @@ def damping_function(name: str) -> DampingFunction:
 
 
 def parse_damping(name: str):
-    """A damping name from the command line (``table6`` is thesis Table 6)."""
+    """Parse a damping name from the command line (``table6`` is thesis Table 6).
+
+    Parameters
+    ----------
+    name : str
+        'table6' or a key of :data:`DAMPING_FUNCTIONS`.
+
+    Returns
+    -------
+    str or PerBody
+        ``name`` itself, or :data:`THESIS_TABLE6` for 'table6'.
+
+    Raises
+    ------
+    InputError
+        For an unknown name.
+    """
     from exudyn_study.bodies.damping import THESIS_TABLE6, damping_function
 
     if name == "table6":

@@ -25,7 +25,14 @@ from exudyn_study.bodies.fe.assembly import linear_subtriangles
 from exudyn_study.bodies.reduction import ReducedBody
 from exudyn_study.errors import InputError
 
-__all__ = ["FFRFData", "ffrf_data", "skew_columns", "modal_damping_matrix", "add_flexible_body", "FlexibleBodyHandle"]
+__all__ = [
+    "FFRFData",
+    "ffrf_data",
+    "skew_columns",
+    "modal_damping_matrix",
+    "add_flexible_body",
+    "FlexibleBodyHandle",
+]
 
 log = logging.getLogger(__name__)
 
@@ -47,7 +54,32 @@ FFRF_FIELDS = (
 class FFRFData:
     """Floating-frame inertia terms of a reduced body (Zwölfer and Gerstmayr 2020).
 
-    All arrays in SI units; shapes follow Exudyn's ``ObjectFFRFreducedOrder``.
+    All arrays in SI units; shapes follow Exudyn's ``ObjectFFRFreducedOrder``. With ``n`` mesh
+    nodes and ``m`` modes, ``M`` the FE mass matrix (3n, 3n), ``Psi`` the mode basis (3n, m),
+    ``Phit`` the rigid translations (3n, 3), ``X~`` (3n, 3) and ``Psi~`` (3n, 3m) the node-wise
+    skew matrices of the reference positions and of the modes (:func:`skew_columns`); the
+    products with ``Psi`` carry the mode basis's units.
+
+    Attributes
+    ----------
+    mass : float
+        Total mass ``Phit^T M Phit`` (kg).
+    inertia : ndarray, shape (3, 3)
+        Inertia tensor about the body's reference point, ``X~^T M X~`` (kg m^2).
+    center_of_mass : ndarray, shape (3,)
+        Centre of mass in body coordinates (m).
+    m_psi_tilde_psi : ndarray, shape (3m, m)
+        ``Psi~^T M Psi``.
+    m_psi_tilde_psi_tilde : ndarray, shape (3m, 3m)
+        ``Psi~^T M Psi~``.
+    m_phit_t_psi : ndarray, shape (3, m)
+        ``Phit^T M Psi``.
+    m_phit_t_psi_tilde : ndarray, shape (3, 3m)
+        ``Phit^T M Psi~``.
+    m_xref_tilde_psi : ndarray, shape (3, m)
+        ``X~^T M Psi`` (kg m times the mode basis's units).
+    m_xref_tilde_psi_tilde : ndarray, shape (3, 3m)
+        ``X~^T M Psi~``.
     """
 
     mass: float
@@ -66,7 +98,18 @@ class FFRFData:
 
     @classmethod
     def from_arrays(cls, arrays) -> FFRFData:
-        """Inverse of :meth:`as_arrays`."""
+        """Build an :class:`FFRFData` from the arrays of :meth:`as_arrays` (its inverse).
+
+        Parameters
+        ----------
+        arrays : mapping str -> array_like
+            One array per name in :data:`FFRF_FIELDS` (e.g. an opened ``.npz`` file); 'mass' a
+            scalar (kg).
+
+        Returns
+        -------
+        FFRFData
+        """
         values = {f: np.asarray(arrays[f]) for f in FFRF_FIELDS}
         values["mass"] = float(values["mass"])
         return cls(**values)
@@ -88,7 +131,9 @@ def _fem_interface(body: ReducedBody):
     fem.stiffnessMatrix = body.stiffness_matrix
     fem.nodeSets = [
         {"Name": name, "NodeNumbers": nodes, "NodeWeights": weights, "type": "boundary"}
-        for name, nodes, weights in zip(body.interface_names, body.interface_nodes, body.interface_weights, strict=False)
+        for name, nodes, weights in zip(
+            body.interface_names, body.interface_nodes, body.interface_weights, strict=False
+        )
     ]
     fem.modeBasis = {"matrix": np.asarray(body.mode_basis), "type": "HCBmodes"}
     fem.eigenValues = (2.0 * math.pi * np.asarray(body.frequencies_hz)) ** 2
@@ -185,7 +230,9 @@ def ffrf_data(body: ReducedBody, method: str = "numpy") -> FFRFData:
     )
 
 
-def modal_damping_matrix(frequencies_hz: np.ndarray, damping_ratios: Sequence[float] | np.ndarray) -> np.ndarray:
+def modal_damping_matrix(
+    frequencies_hz: np.ndarray, damping_ratios: Sequence[float] | np.ndarray
+) -> np.ndarray:
     """Diagonal reduced damping matrix ``diag(2 zeta_i omega_i)`` of a mass-normalised body.
 
     Parameters
@@ -234,6 +281,9 @@ class FlexibleBodyHandle:
     interface_markers : dict name -> MarkerSuperElementRigid number
     interface_positions_m : dict name -> global position of the patch centre (m)
     damping_ratios : ndarray
+        Damping ratio per flexible mode, shape (n_modes,).
+    position_m : ndarray, shape (3,)
+        Global position of the body's reference frame (m).
     """
 
     body: ReducedBody
@@ -246,7 +296,20 @@ class FlexibleBodyHandle:
     position_m: np.ndarray
 
     def node_marker(self, mbs, node_index: int) -> int:
-        """Add (once) and return a ``MarkerSuperElementPosition`` at mesh node ``node_index``."""
+        """Add (once) and return a ``MarkerSuperElementPosition`` at mesh node ``node_index``.
+
+        Parameters
+        ----------
+        mbs : exudyn.MainSystem
+            The system holding the body.
+        node_index : int
+            Mesh node index of the body (its FE mesh numbering).
+
+        Returns
+        -------
+        int
+            The marker number (the same one on every call with this node).
+        """
         import exudyn as exu
 
         cache = self.__dict__.setdefault("_node_markers", {})
@@ -344,7 +407,8 @@ def add_flexible_body(
     markers, positions = {}, {}
     offset = np.asarray(position_m, dtype=float)
     for itf_name, nodes, weights, center in zip(
-        body.interface_names, body.interface_nodes, body.interface_weights, body.interface_centers_m, strict=False
+        body.interface_names, body.interface_nodes, body.interface_weights, body.interface_centers_m,
+        strict=False,
     ):
         markers[itf_name] = mbs.AddMarker(
             eii.MarkerSuperElementRigid(

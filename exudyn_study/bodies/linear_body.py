@@ -55,6 +55,16 @@ def small_rigid_motion(positions_m: np.ndarray) -> np.ndarray:
     """Displacements of points at ``positions_m`` (n, 3) per small rigid motion, shape (3 n, 6).
 
     Columns: translation (x, y, z), then small rotation about the origin: ``u_i = t + theta x x_i``.
+
+    Parameters
+    ----------
+    positions_m : array_like, shape (n, 3)
+        Point positions relative to the rotation centre (m); any shape with 3 n entries.
+
+    Returns
+    -------
+    ndarray, shape (3 n, 6)
+        Displacements (xyz interleaved per point; m per m of translation, m per rad of rotation).
     """
     x = np.asarray(positions_m, dtype=float).reshape(-1, 3)
     g = np.zeros((3 * x.shape[0], 6))
@@ -69,6 +79,21 @@ def rigid_body_basis(body: ReducedBody, ffrf: FFRFData, nodes=None) -> np.ndarra
     Translations and rotations about the reference point, ``u_i = t + theta x x_i``,
     made mass-orthonormal with the body's mass, centre of mass and inertia
     (``Psi_r^T M Psi_r = I`` without the full FE mass matrix).
+
+    Parameters
+    ----------
+    body : ReducedBody
+        The body (node positions in body coordinates, m).
+    ffrf : FFRFData
+        Its mass, centre of mass and inertia.
+    nodes : array_like of int, optional
+        Mesh node indices whose rows to return (default: every node).
+
+    Returns
+    -------
+    ndarray, shape (3 n_nodes, 6)
+        Nodal displacements (xyz interleaved per node) per unit rigid-body modal coordinate
+        (m / sqrt(kg)).
     """
     x = np.asarray(body.node_positions_m, dtype=float)
     if nodes is not None:
@@ -145,7 +170,9 @@ def add_linear_cms_body(
 
     tris = np.asarray(body.surface_triangles)
     patches = {}
-    for itf_name, nodes, weights in zip(body.interface_names, body.interface_nodes, body.interface_weights, strict=False):
+    for itf_name, nodes, weights in zip(
+        body.interface_names, body.interface_nodes, body.interface_weights, strict=False
+    ):
         centre = weighted_center(body, itf_name)
         offset = np.zeros(3)
         if marker_nodes is not None and len(nodes) > marker_nodes and patch_is_rigid(body, nodes):
@@ -158,7 +185,8 @@ def add_linear_cms_body(
         node_map = None
         ref_positions, exu_basis = positions_all, basis
     else:
-        used = list(dict.fromkeys([int(n) for n in mesh_nodes] + [int(n) for p in patches.values() for n in p[0]]))
+        patch_nodes = [int(n) for p in patches.values() for n in p[0]]
+        used = list(dict.fromkeys([int(n) for n in mesh_nodes] + patch_nodes))
         node_map = {n: i for i, n in enumerate(used)}
         rows = (3 * np.asarray(used)[:, None] + np.arange(3)).ravel()
         ref_positions, exu_basis = positions_all[used], basis[rows]
@@ -219,7 +247,22 @@ def weighted_center(body: ReducedBody, interface: str) -> np.ndarray:
 
 
 def patch_is_rigid(body: ReducedBody, nodes, rtol: float = 1e-8) -> bool:
-    """True if the patch ``nodes`` move as a rigid body (small rotation) in every mode of ``body``."""
+    """Return True if the patch ``nodes`` moves as a rigid body (small rotation) in every mode of ``body``.
+
+    Parameters
+    ----------
+    body : ReducedBody
+        The body and its mode basis.
+    nodes : array_like of int
+        Mesh node indices of the patch.
+    rtol : float
+        Largest norm of the non-rigid part of the patch's mode displacements, relative to their
+        norm, that still counts as rigid.
+
+    Returns
+    -------
+    bool
+    """
     nodes = np.asarray(nodes, dtype=int)
     x = np.asarray(body.node_positions_m)[nodes]
     rel = x - x.mean(axis=0)
@@ -232,7 +275,7 @@ def patch_is_rigid(body: ReducedBody, nodes, rtol: float = 1e-8) -> bool:
 
 
 def marker_node_subset(body: ReducedBody, nodes, centre, count: int = 6):
-    """A few well-spread nodes of a rigid patch with weights that keep its centre.
+    """Choose a few well-spread nodes of a rigid patch with weights that keep its centre.
 
     Farthest-point sampling (from the node farthest from the patch centre) picks
     ``count`` nodes, more (up to ``4 count``) if needed; the weights are the smallest
@@ -241,6 +284,17 @@ def marker_node_subset(body: ReducedBody, nodes, centre, count: int = 6):
     centre must come from the nodes) and must stay positive; the nodes must span a
     plane (a rigid marker needs non-collinear nodes). Otherwise the whole patch is
     kept.
+
+    Parameters
+    ----------
+    body : ReducedBody
+        The body (node positions, m).
+    nodes : array_like of int
+        Mesh node indices of the patch.
+    centre : array_like, shape (3,)
+        The patch centre the weights must keep (m, body coordinates), e.g. :func:`weighted_center`.
+    count : int
+        Number of nodes to start from.
 
     Returns
     -------
@@ -283,6 +337,22 @@ def interface_rigid_map(body: ReducedBody, ffrf: FFRFData, interface: str, rtol:
     this is exactly the linearised kinematics of Exudyn's ``MarkerSuperElementRigid`` on
     the patch.
 
+    Parameters
+    ----------
+    body : ReducedBody
+        The body, its mode basis and interface patches.
+    ffrf : FFRFData
+        Its mass, centre of mass and inertia (for the rigid-body modes).
+    interface : str
+        Interface name (one of ``body.interface_names``).
+    rtol : float
+        Tolerance of the rigidity check, relative to the norm of the patch's displacements.
+
+    Returns
+    -------
+    ndarray, shape (6, 6 + n_modes)
+        Translation (m) and rotation (rad) per unit linear-CMS coordinate.
+
     Raises
     ------
     InputError
@@ -307,7 +377,22 @@ def interface_rigid_map(body: ReducedBody, ffrf: FFRFData, interface: str, rtol:
 
 
 def node_modal_map(body: ReducedBody, ffrf: FFRFData, nodes) -> np.ndarray:
-    """Displacements of mesh ``nodes`` per unit linear-CMS coordinate, shape (3 len(nodes), 6 + n_modes)."""
+    """Displacements of mesh ``nodes`` per unit linear-CMS coordinate, shape (3 len(nodes), 6 + n_modes).
+
+    Parameters
+    ----------
+    body : ReducedBody
+        The body and its mode basis.
+    ffrf : FFRFData
+        Its mass, centre of mass and inertia (for the rigid-body modes, :func:`rigid_body_basis`).
+    nodes : int or array_like of int
+        Mesh node indices.
+
+    Returns
+    -------
+    ndarray, shape (3 len(nodes), 6 + n_modes)
+        Rigid-body modes then flexible modes; xyz interleaved per node.
+    """
     nodes = np.atleast_1d(np.asarray(nodes, dtype=int))
     rows = (3 * nodes[:, None] + np.arange(3)).ravel()
     return np.hstack([rigid_body_basis(body, ffrf, nodes), np.asarray(body.mode_basis)[rows]])
@@ -341,7 +426,18 @@ class MatrixBodyHandle(FlexibleBodyHandle):
     fixed_interfaces: tuple = ()
 
     def node_map(self, nodes) -> np.ndarray:
-        """Displacements of mesh ``nodes`` per unit body coordinate, shape (3 len(nodes), n_coordinates)."""
+        """Displacements of mesh ``nodes`` per unit body coordinate, shape (3 len(nodes), n_coordinates).
+
+        Parameters
+        ----------
+        nodes : int or array_like of int
+            Mesh node indices of the body.
+
+        Returns
+        -------
+        ndarray, shape (3 len(nodes), n_coordinates)
+            Displacement (m, xyz interleaved per node) per unit body coordinate (m or rad).
+        """
         return node_modal_map(self.body, self.ffrf, nodes) @ self.transformation
 
     def node_marker(self, mbs, node_index: int) -> int:
@@ -350,6 +446,18 @@ class MatrixBodyHandle(FlexibleBodyHandle):
         A ``NodePoint`` without mass at the node, its displacement tied to the body's
         coordinates by a constant linear constraint (``ObjectConnectorCoordinateVector``
         on a ``MarkerObjectODE2Coordinates`` of the body).
+
+        Parameters
+        ----------
+        mbs : exudyn.MainSystem
+            The system holding the body.
+        node_index : int
+            Mesh node index of the body.
+
+        Returns
+        -------
+        int
+            The marker number (the same one on every call with this node).
         """
         import exudyn.itemInterface as eii
 
@@ -384,6 +492,18 @@ def interface_coordinate_transformation(body: ReducedBody, ffrf: FFRFData) -> np
     ``body.interface_names`` order); ``z = N^T q`` with ``N`` an orthonormal basis of the
     null space of ``T``. So ``P = [T^+, N]`` (``T^+`` the right pseudo-inverse),
     ``P^-1 = [T; N^T]``. The interface motions must be independent (``T`` of full row rank).
+
+    Parameters
+    ----------
+    body : ReducedBody
+        The body, its mode basis and interface patches.
+    ffrf : FFRFData
+        Its mass, centre of mass and inertia (for the rigid-body modes).
+
+    Returns
+    -------
+    ndarray, shape (6 + n_modes, 6 + n_modes)
+        ``P = [T^+, N]``.
 
     Raises
     ------

@@ -81,6 +81,16 @@ MATERIALS = MappingProxyType(
 def material(name: str) -> Material:
     """Return the material called ``name``.
 
+    Parameters
+    ----------
+    name : str
+        A key of :data:`MATERIALS` (e.g. 'steel').
+
+    Returns
+    -------
+    Material
+        Young's modulus (Pa), Poisson's ratio and density (kg/m^3).
+
     Raises
     ------
     InputError

@@ -188,6 +188,16 @@ class ReducedBody:
     def interface_index(self, name: str) -> int:
         """Index of the interface called ``name``.
 
+        Parameters
+        ----------
+        name : str
+            Interface name (one of ``interface_names``).
+
+        Returns
+        -------
+        int
+            Its position in ``interface_names``, ``interface_nodes`` and ``interface_weights``.
+
         Raises
         ------
         InputError
@@ -201,7 +211,23 @@ class ReducedBody:
             ) from None
 
     def component_nodes(self, component: str) -> np.ndarray:
-        """Node indices of ``component`` (all its regions)."""
+        """Node indices of ``component`` (all its regions), sorted and unique.
+
+        Parameters
+        ----------
+        component : str
+            Component name (a value of ``region_components``).
+
+        Returns
+        -------
+        ndarray of int
+            Mesh node indices.
+
+        Raises
+        ------
+        InputError
+            If no region of the body belongs to ``component``.
+        """
         regions = [r for r, c in self.region_components.items() if c == component]
         if not regions:
             raise InputError(

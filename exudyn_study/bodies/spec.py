@@ -34,17 +34,36 @@ REDUCTION_CODE_VERSION = 1
 BODY_KINDS = ("chassis", "rear_foundation")
 
 
-#: Modules whose code determines a reduced body: a change in any of them changes the cache key.
 #: the stages of a body build, as its progress bar shows them
 BUILD_STAGES = ("mesh", "assembly", "reduction", "FFRF terms")
 
+#: Modules whose code determines a reduced body: a change in any of them changes the cache key.
 _SOURCE_MODULES = (
     "fe/chassis.py", "fe/assembly.py", "fe/solvers.py", "reduction.py", "ffrf.py", "materials.py",
 )
 
 
+def _code_without_docs(source: str) -> str:
+    """Return the syntax tree of ``source`` as text, without docstrings (comments are not in it)."""
+    import ast
+
+    tree = ast.parse(source)
+    for node in ast.walk(tree):
+        body = getattr(node, "body", None)
+        if (isinstance(node, (ast.Module, ast.ClassDef, ast.FunctionDef, ast.AsyncFunctionDef)) and body
+                and isinstance(body[0], ast.Expr) and isinstance(body[0].value, ast.Constant)
+                and isinstance(body[0].value.value, str)):
+            node.body = body[1:] or [ast.Pass()]
+    return ast.dump(tree, include_attributes=False)
+
+
 def _source_digest() -> str:
-    """SHA-256 over the source of the modules that build a body (geometry to FFRF terms)."""
+    """SHA-256 over the code of the modules that build a body (geometry to FFRF terms).
+
+    The code is hashed as its syntax tree without docstrings, so a change of documentation,
+    comments or line wrapping keeps the cached bodies, and a change of what the code does
+    rebuilds them.
+    """
     import hashlib
     from pathlib import Path
 
@@ -52,7 +71,7 @@ def _source_digest() -> str:
     digest = hashlib.sha256()
     for rel in _SOURCE_MODULES:
         digest.update(rel.encode())
-        digest.update((root / rel).read_bytes())
+        digest.update(_code_without_docs((root / rel).read_text()).encode())
     return digest.hexdigest()
 
 
@@ -177,21 +196,23 @@ class FlexibleBodyData:
 
 def fe_model_and_interfaces(spec: BodySpec, timings: dict | None = None,
                             stage: Callable[[str], None] | None = None):
-    """Mesh and assemble the body of ``spec``.
+    """Mesh and assemble the body of ``spec``; return ``(FEModel, interfaces)``.
 
     Parameters
     ----------
     spec : BodySpec
-        The body.
+        The body (kind, component, joint model, mesh size).
     timings : dict, optional
-        Filled with the wall times (s) of ``mesh`` and ``assembly``.
+        If given, receives the wall times (s) under 'mesh' and 'assembly'.
     stage : callable, optional
         Called with ``"mesh"`` and ``"assembly"`` as each starts (progress display).
 
     Returns
     -------
-    (FEModel, list of Interface)
-        The assembled FE model and its RBE2 interfaces.
+    fe_model : FEModel
+        Mass and stiffness matrices and the mesh data.
+    interfaces : list of Interface
+        The body's interface patches, in the geometry's order.
     """
     from exudyn_study.bodies.fe.assembly import PartMaterial, assemble, interface_from_boundary
 
@@ -317,7 +338,23 @@ def flexible_body(spec: BodySpec = BodySpec(), cache_dir=None, use_cache: bool =
 
 
 def parse_mesh(text: str):
-    """'coarse', 'production' or a size in m."""
+    """Parse a mesh size: 'coarse', 'production' or a maximum element size in m.
+
+    Parameters
+    ----------
+    text : str
+        'coarse', 'production' or a number (m), e.g. from ``--mesh``.
+
+    Returns
+    -------
+    str or float
+        The name, or the element size (m).
+
+    Raises
+    ------
+    InputError
+        For any other text.
+    """
     from exudyn_study.errors import InputError
 
     if text in ("coarse", "production"):

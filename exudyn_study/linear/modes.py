@@ -64,7 +64,21 @@ class SystemModes:
 
 
 def to_modal_model(modes: SystemModes, metadata: dict | None = None) -> ModalModel:
-    """The modes as a :class:`~exudyn_study.identify.model.ModalModel` (modes JSON schema)."""
+    """Return the modes as a :class:`~exudyn_study.identify.model.ModalModel` (modes JSON schema).
+
+    Parameters
+    ----------
+    modes : SystemModes
+        Damped system modes.
+    metadata : dict, optional
+        Added to the model's metadata (after ``{"source": "exudyn_study.linear.modes"}``).
+
+    Returns
+    -------
+    ModalModel
+        One mode per system mode: frequency (Hz), damping ratio (capped below 1), complex shape
+        per sensor name, description.
+    """
     out = []
     for j in range(modes.frequency_hz.size):
         shape = {n: complex(modes.shapes[i, j]) for i, n in enumerate(modes.sensor_names)}
@@ -77,7 +91,20 @@ def to_modal_model(modes: SystemModes, metadata: dict | None = None) -> ModalMod
 
 
 def modes_table(modes, fmt: str = "text") -> str:
-    """The thesis-style table (mode, frequencies, damping, description) as text or markdown."""
+    """Format the thesis-style table (mode, frequencies, damping, description) as text or markdown.
+
+    Parameters
+    ----------
+    modes : SystemModes
+        Damped system modes.
+    fmt : {'text', 'markdown'}
+        Fixed-width text columns, or a markdown table (any other value gives text).
+
+    Returns
+    -------
+    str
+        One line per mode: undamped and damped frequency (Hz), damping (%), description.
+    """
     rows = [(j + 1, modes.undamped_frequency_hz[j] if j < modes.undamped_frequency_hz.size else float("nan"),
              modes.frequency_hz[j], 100 * modes.damping_ratio[j], modes.descriptions[j])
             for j in range(modes.frequency_hz.size)]

@@ -59,20 +59,61 @@ class ForceLaw(Protocol):
         ...
 
     def residual(self, delta: float, delta_t: float, state) -> tuple[float, Any]:
-        """(force beyond the linear tangent in N, new state) at relative displacement/velocity."""
+        """(force beyond the linear tangent in N, new state) at relative displacement/velocity.
+
+        Parameters
+        ----------
+        delta : float
+            Relative displacement of the element's markers along its direction (m).
+        delta_t : float
+            Its rate (m/s).
+        state : any
+            The law's state before this evaluation (``initial_state()`` at rest).
+
+        Returns
+        -------
+        force : float
+            Residual force (N), resisting positive ``delta``.
+        state : any
+            The state after this evaluation.
+        """
         ...
 
 
 @dataclass(frozen=True)
 class CubicStiffening:
-    """``residual = k3 delta^3`` (N, with ``k3`` in N/m^3): a hardening (k3 > 0) spring."""
+    """``residual = k3 delta^3`` (N, with ``k3`` in N/m^3): a hardening (k3 > 0) spring.
+
+    Parameters
+    ----------
+    cubic_stiffness_n_per_m3 : float
+        ``k3`` (N/m^3); negative for a softening spring.
+    """
 
     cubic_stiffness_n_per_m3: float
 
     def initial_state(self):
+        """Return None: the law is memoryless."""
         return None
 
     def residual(self, delta, delta_t, state):
+        """Return ``(k3 delta^3, None)``.
+
+        Parameters
+        ----------
+        delta : float
+            Relative displacement along the element's direction (m).
+        delta_t : float
+            Its rate (m/s); unused.
+        state : None
+            Unused.
+
+        Returns
+        -------
+        force : float
+            ``k3 delta^3`` (N).
+        state : None
+        """
         return self.cubic_stiffness_n_per_m3 * delta * delta * delta, None
 
 
@@ -85,15 +126,41 @@ class JenkinsFriction:
     is below the slip force the slider sticks; otherwise it moves so that the force stays at
     ``+-slip_force_n``. Energy dissipated per cycle of amplitude ``a`` above slip:
     ``4 F (a - F / k)``.
+
+    Parameters
+    ----------
+    stiffness_n_per_m : float
+        Stiffness ``k`` of the spring in series with the slider (N/m).
+    slip_force_n : float
+        Slip force ``F`` of the Coulomb slider (N).
     """
 
     stiffness_n_per_m: float
     slip_force_n: float
 
     def initial_state(self):
+        """Return 0.0: the slider's displacement at rest (m)."""
         return 0.0
 
     def residual(self, delta, delta_t, state):
+        """Return ``(-k s, s)`` with ``s`` the slider displacement after stick or slip.
+
+        Parameters
+        ----------
+        delta : float
+            Relative displacement along the element's direction (m).
+        delta_t : float
+            Its rate (m/s); unused (the slider is rate independent).
+        state : float
+            Slider displacement ``s`` before this evaluation (m).
+
+        Returns
+        -------
+        force : float
+            Residual force ``-k s`` (N).
+        state : float
+            Slider displacement after this evaluation (m).
+        """
         k, f_slip = self.stiffness_n_per_m, self.slip_force_n
         trial = k * (delta - state)
         if trial > f_slip:
@@ -116,6 +183,9 @@ class LocalNonlinearity:
         Global unit vector.
     law : ForceLaw
     description : str
+    metadata : dict
+        Free-form information about the element for its caller (not read by the simulation);
+        empty by default.
     """
 
     name: str
@@ -147,6 +217,20 @@ def marker_displacement_map(model, marker: int, step: float = 1e-6) -> np.ndarra
 
     Central differences of Exudyn's marker position output over every ODE2 coordinate
     (exact for the linear CMS bodies, the linearisation for rigid bodies).
+
+    Parameters
+    ----------
+    model : Model
+        The model (assembled here if it is not).
+    marker : int
+        Exudyn marker number with a position output.
+    step : float
+        Difference step of each coordinate (m or rad).
+
+    Returns
+    -------
+    ndarray, shape (3, n_q)
+        Marker displacement (m) per unit ODE2 coordinate.
     """
     import exudyn as exu
 
@@ -173,7 +257,20 @@ def marker_displacement_map(model, marker: int, step: float = 1e-6) -> np.ndarra
 
 
 def gather_vectors(model, elements=None) -> np.ndarray:
-    """``g`` with ``delta_e = g[e] . q`` for the model's local nonlinearities, shape (n_e, n_q)."""
+    """``g`` with ``delta_e = g[e] . q`` for the model's local nonlinearities, shape (n_e, n_q).
+
+    Parameters
+    ----------
+    model : Model
+        The model (assembled here if it is not).
+    elements : sequence of LocalNonlinearity, optional
+        Elements to gather (default: ``model.local_nonlinearities``).
+
+    Returns
+    -------
+    ndarray, shape (n_elements, n_q)
+        Relative displacement of each element (m) per unit ODE2 coordinate.
+    """
     elements = list(model.local_nonlinearities if elements is None else elements)
     rows = []
     for el in elements:

@@ -77,6 +77,13 @@ def simulate_linear(lin, drive, chunk: int = 8192) -> np.ndarray:
 def frf_linear(lin, frequencies_hz) -> np.ndarray:
     """Drive displacement -> sensor acceleration FRFs by complex modal superposition.
 
+    Parameters
+    ----------
+    lin : LinearSystem
+        The linearised system.
+    frequencies_hz : array_like, shape (n_freq,)
+        Frequencies (Hz).
+
     Returns
     -------
     ndarray, complex, shape (n_sensors, 1, n_freq)
@@ -100,6 +107,20 @@ def modal_initial_state(modes, index: int, amplitude: float = 1e-4):
 
     ``z(t) = Re(a phi exp(lambda t))``: ``z0 = Re(a phi)``, ``v0 = Re(a lambda phi)``
     with ``phi`` the mode's coordinates (:attr:`SystemModes.coordinates`).
+
+    Parameters
+    ----------
+    modes : SystemModes
+        Damped modes of the linearised system.
+    index : int
+        Index of the mode (0-based, in ``modes`` order).
+    amplitude : float
+        Largest modulus of the scaled mode coordinates (m or rad, per coordinate).
+
+    Returns
+    -------
+    z0, v0 : ndarray, shape (n,)
+        Initial coordinates and velocities of the linearised system.
     """
     phi = np.asarray(modes.coordinates)[:, index]
     phi = amplitude * phi / np.abs(phi).max()
@@ -110,7 +131,24 @@ def modal_initial_state(modes, index: int, amplitude: float = 1e-4):
 
 
 def free_decay_linear(lin, initial_state, n_samples: int, rate_hz: float = 1000.0) -> np.ndarray:
-    """Exact sampled sensor accelerations of the unforced linear system from ``(z0, v0)``."""
+    """Exact sampled sensor accelerations of the unforced linear system from ``(z0, v0)``.
+
+    Parameters
+    ----------
+    lin : LinearSystem
+        The linearised system (``n = lin.size`` coordinates).
+    initial_state : tuple of two array_like, shape (n,)
+        ``(z0, v0)``: initial coordinates and velocities (e.g. :func:`modal_initial_state`).
+    n_samples : int
+        Number of output samples, the first at t = 0.
+    rate_hz : float
+        Output sample rate (Hz).
+
+    Returns
+    -------
+    ndarray, shape (n_sensors, n_samples)
+        Sensor accelerations (m/s^2); the drive is at rest.
+    """
     a, _, c, _ = state_space(lin)
     x0 = np.concatenate([np.asarray(initial_state[0], float), np.asarray(initial_state[1], float)])
     lam, v = sla.eig(a)
@@ -127,8 +165,27 @@ def frf_linear_at_resolution(lin, frequencies_hz, nperseg: int = 16384, rate_hz:
     window's power kernel ``|W(f)|^2``, and the drive's spectrum is flat, so the expected
     H1 is ``sum_d |W(d)|^2 H(f + d) / sum_d |W(d)|^2``. Comparing an estimate with this
     separates estimator bias at lightly damped peaks (half-power bandwidth of the order of
-    the resolution) from disagreement between simulation and model. Shape
-    (n_sensors, n_freq).
+    the resolution) from disagreement between simulation and model.
+
+    Parameters
+    ----------
+    lin : LinearSystem
+        The linearised system.
+    frequencies_hz : array_like, shape (n_freq,)
+        Frequencies (Hz) of the estimate.
+    nperseg : int
+        Welch segment length (samples).
+    rate_hz : float
+        Sample rate of the estimate (Hz).
+    oversample : int
+        Points of the window kernel per frequency line.
+    half_width_bins : int
+        Half width of the kernel's main part kept in the convolution (frequency lines).
+
+    Returns
+    -------
+    ndarray, complex, shape (n_sensors, n_freq)
+        Expected H1 in (m/s^2)/m.
     """
     f = np.asarray(frequencies_hz, dtype=float)
     df = rate_hz / nperseg

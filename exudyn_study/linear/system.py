@@ -22,6 +22,16 @@ def spline_inputs(drive) -> np.ndarray:
 
     Shape (4, (N - 1) upsampling + 1): the knots of the drive's fine grid (every
     ``drive.upsampling``-th is a sample instant).
+
+    Parameters
+    ----------
+    drive : exudyn_study.model.Drive
+        With its signal set (its spline coefficients and ``spline_rate_hz``).
+
+    Returns
+    -------
+    ndarray, shape (4, n_knots)
+        Displacement (m), velocity (m/s), acceleration (m/s^2) and jerk (m/s^3) at each knot.
     """
     c = drive._coef  # (4, n_knots - 1): c0 dt^3 + c1 dt^2 + c2 dt + c3
     n = c.shape[1] + 1
@@ -37,6 +47,28 @@ def spline_inputs(drive) -> np.ndarray:
 
 
 def state_space(lin):
+    """Return the first-order form ``x' = A x + B psi``, ``y = C x + D psi`` of ``lin``.
+
+    The state is ``x = [z; z']``, the input ``psi = (u, u', u'', u''')`` (:func:`spline_inputs`:
+    the drive displacement and its derivatives), the output ``y`` the sensor accelerations
+    ``S q''`` (m/s^2), including the rigid drive motion ``S r u''``.
+
+    Parameters
+    ----------
+    lin : LinearSystem
+        The linearised system (``n = lin.size`` independent coordinates).
+
+    Returns
+    -------
+    a : ndarray, shape (2n, 2n)
+        ``A``.
+    b : ndarray, shape (2n, 4)
+        ``B``; the column of the jerk ``u'''`` is zero.
+    c : ndarray, shape (n_sensors, 2n)
+        ``C``.
+    d : ndarray, shape (n_sensors, 4)
+        ``D``.
+    """
     n = lin.size
     minv = np.linalg.inv(lin.mass)
     a = np.block([[np.zeros((n, n)), np.eye(n)], [-minv @ lin.stiffness, -minv @ lin.damping]])
@@ -71,6 +103,9 @@ class LinearSystem:
         ``S``.
     sensor_names : tuple of str
     metadata : dict
+    full_mass, full_damping, full_stiffness : ndarray, shape (n_q, n_q), or None
+        The unprojected matrices in Exudyn's ODE2 coordinates (SI), kept for checks and for
+        adding terms before projection; None when not supplied.
     """
 
     mass: np.ndarray

@@ -31,6 +31,15 @@ from exudyn_study.linear.system import TWO_PI, LinearSystem
 def body_displacement_map(model, body_name: str, nodes: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
     """Linear map from a body's ODE2 coordinates to the displacements of mesh ``nodes``.
 
+    Parameters
+    ----------
+    model : Model
+        An assembled model (:func:`~exudyn_study.model.build_model`).
+    body_name : str
+        Key of ``model.bodies`` (e.g. 'chassis', 'frame', 'rear_foundation').
+    nodes : array_like of int, shape (n_nodes,)
+        Mesh node indices of the body (its FE mesh numbering).
+
     Returns
     -------
     indices : ndarray of int

@@ -216,6 +216,13 @@ class Drive:
     def set_signal(self, samples, sample_rate_hz: float) -> None:
         """Use ``samples`` (m) at ``sample_rate_hz`` as the drive (band-limited, then a natural cubic spline).
 
+        Parameters
+        ----------
+        samples : array_like, shape (n_samples,)
+            Piston displacement samples (m), at least 4, all finite; any shape is flattened.
+        sample_rate_hz : float
+            Their sample rate (Hz), finite and > 0.
+
         Raises
         ------
         InputError
@@ -235,7 +242,8 @@ class Drive:
         if bad.any():
             i = int(np.flatnonzero(bad)[0])
             raise InputError(
-                f"drive signal has non-finite samples, the first at index {i} (t = {i / sample_rate_hz:.4f} s)"
+                f"drive signal has non-finite samples, the first at index {i} "
+                f"(t = {i / sample_rate_hz:.4f} s)"
             )
         fine = band_limited_upsample(x, int(factor))
         spline_rate = float(sample_rate_hz) * int(factor)
@@ -260,7 +268,18 @@ class Drive:
         return k, t - k / self.spline_rate_hz
 
     def value(self, t: float) -> float:
-        """Displacement at time ``t`` (m)."""
+        """Return the displacement at time ``t`` (m).
+
+        Parameters
+        ----------
+        t : float
+            Time (s); before the first sample the first sample is held, after the last the last.
+
+        Returns
+        -------
+        float
+            Piston displacement (m).
+        """
         k, dt = self._locate(t)
         if k is None:
             return float(self.samples[0] if dt == 0.0 else self.samples[-1])
@@ -268,7 +287,18 @@ class Drive:
         return ((c[0, k] * dt + c[1, k]) * dt + c[2, k]) * dt + c[3, k]
 
     def velocity(self, t: float) -> float:
-        """Velocity at time ``t`` (m/s)."""
+        """Return the velocity at time ``t`` (m/s).
+
+        Parameters
+        ----------
+        t : float
+            Time (s); outside the sampled interval the velocity is 0.
+
+        Returns
+        -------
+        float
+            Piston velocity (m/s).
+        """
         k, dt = self._locate(t)
         if k is None:
             return 0.0
@@ -276,7 +306,26 @@ class Drive:
         return (3.0 * c[0, k] * dt + 2.0 * c[1, k]) * dt + c[2, k]
 
     def evaluate(self, t: np.ndarray, derivative: int = 0) -> np.ndarray:
-        """Vectorised displacement (0), velocity (1) or acceleration (2) at times ``t``."""
+        """Return the displacement (0), velocity (1) or acceleration (2) at times ``t``, vectorised.
+
+        Parameters
+        ----------
+        t : array_like
+            Times (s), any shape; outside the sampled interval the end intervals' polynomials are
+            evaluated at their ends.
+        derivative : {0, 1, 2}
+            Time derivative to return.
+
+        Returns
+        -------
+        ndarray, shape of ``t``
+            Displacement (m), velocity (m/s) or acceleration (m/s^2).
+
+        Raises
+        ------
+        InputError
+            For another ``derivative``.
+        """
         t = np.asarray(t, dtype=float)
         n = self._coef.shape[1]
         k = np.clip((t * self.spline_rate_hz).astype(int), 0, n - 1)
@@ -291,12 +340,48 @@ class Drive:
         raise InputError(f"derivative {derivative!r}; expected 0, 1 or 2")
 
     # Exudyn user functions (ObjectJointGeneric offsetUserFunction / offsetUserFunction_t)
-    def offset_user_function(self, mbs, t, item_number, parameters):  # noqa: D102
+    def offset_user_function(self, mbs, t, item_number, parameters):
+        """Return the joint offset at ``t``: Exudyn's ``ObjectJointGeneric`` ``offsetUserFunction``.
+
+        Parameters
+        ----------
+        mbs : exudyn.MainSystem
+            The system (unused; part of Exudyn's user-function signature).
+        t : float
+            Time (s).
+        item_number : int
+            The joint's object number (unused).
+        parameters : list of float
+            The joint's ``offsetUserFunctionParameters`` (unused).
+
+        Returns
+        -------
+        list of float, length 6
+            Zero except the driven axis ``self.axis``: the displacement :meth:`value` (m).
+        """
         out = [0.0] * 6
         out[self.axis] = self.value(t)
         return out
 
-    def offset_user_function_t(self, mbs, t, item_number, parameters):  # noqa: D102
+    def offset_user_function_t(self, mbs, t, item_number, parameters):
+        """Return the joint offset velocity at ``t``: Exudyn's ``offsetUserFunction_t``.
+
+        Parameters
+        ----------
+        mbs : exudyn.MainSystem
+            The system (unused; part of Exudyn's user-function signature).
+        t : float
+            Time (s).
+        item_number : int
+            The joint's object number (unused).
+        parameters : list of float
+            The joint's ``offsetUserFunctionParameters`` (unused).
+
+        Returns
+        -------
+        list of float, length 6
+            Zero except the driven axis ``self.axis``: the velocity :meth:`velocity` (m/s).
+        """
         out = [0.0] * 6
         out[self.axis] = self.velocity(t)
         return out
@@ -325,14 +410,48 @@ class RigHandles:
 
 
 def ground_marker(mbs, ground: int, position_m) -> int:
-    """A ``MarkerBodyRigid`` on the ground object at the global ``position_m``."""
+    """Add a ``MarkerBodyRigid`` on the ground object at the global ``position_m``.
+
+    Parameters
+    ----------
+    mbs : exudyn.MainSystem
+        System to add the marker to.
+    ground : int
+        Object number of the ground (``ObjectGround`` at the origin).
+    position_m : array_like, shape (3,)
+        Global marker position (m).
+
+    Returns
+    -------
+    int
+        The marker number.
+    """
     import exudyn.itemInterface as eii
 
     return mbs.AddMarker(eii.MarkerBodyRigid(bodyNumber=ground, localPosition=[float(v) for v in position_m]))
 
 
 def generic_joint(mbs, marker0: int, marker1: int, axes, name: str, **kwargs) -> int:
-    """``ObjectJointGeneric`` constraining ``axes`` (6 flags: x, y, z, rx, ry, rz, global axes)."""
+    """Add an ``ObjectJointGeneric`` constraining ``axes`` (6 flags: x, y, z, rx, ry, rz, global axes).
+
+    Parameters
+    ----------
+    mbs : exudyn.MainSystem
+        System to add the joint to.
+    marker0, marker1 : int
+        Marker numbers of the two joined points (rigid markers: the rotations are constrained too).
+    axes : sequence of 6 int or bool
+        1 for each constrained axis, in the order x, y, z, rx, ry, rz.
+    name : str
+        Exudyn name of the joint.
+    **kwargs
+        Further ``ObjectJointGeneric`` arguments (e.g. ``offsetUserFunction``).
+
+    Returns
+    -------
+    int
+        The joint's object number.
+    """
     import exudyn.itemInterface as eii
 
     return mbs.AddObject(
@@ -356,6 +475,18 @@ def position_marker(mbs, marker: int) -> int:
     iteration): on Model 1 the rig's seven spherical joints on flexible bodies made the
     full Exudyn path 1.46x slower with rigid markers (``benchmarks/bench_simulation.py``).
     Any other marker (or a rigid one with an offset) is returned unchanged.
+
+    Parameters
+    ----------
+    mbs : exudyn.MainSystem
+        System holding the marker.
+    marker : int
+        Marker number.
+
+    Returns
+    -------
+    int
+        The new position marker's number, or ``marker`` itself.
     """
     import exudyn.itemInterface as eii
 
@@ -401,8 +532,9 @@ def _body_marker(mbs, body: int, body_position, global_point) -> int:
     return mbs.AddMarker(eii.MarkerBodyRigid(bodyNumber=body, localPosition=local.tolist()))
 
 
-def add_rig(mbs, frame_markers: dict, frame_positions: dict, foundation, params: RigParameters = RigParameters(),
-            ground: int | None = None, lie_group_nodes: bool = False) -> RigHandles:
+def add_rig(mbs, frame_markers: dict, frame_positions: dict, foundation,
+            params: RigParameters = RigParameters(), ground: int | None = None,
+            lie_group_nodes: bool = False) -> RigHandles:
     """Add the rig's rigid parts and joints, connecting them to the frame and the foundation.
 
     Parameters
@@ -478,8 +610,8 @@ def add_rig(mbs, frame_markers: dict, frame_positions: dict, foundation, params:
         mbs, ground_marker(mbs, h.ground, pivot), _body_marker(mbs, h.bodies["linkage"], l_pos, pivot),
         (1, 1, 1, 1, 0, 1), "linkage_ground")
     h.joints["piston_linkage"] = generic_joint(
-        mbs, _body_marker(mbs, h.bodies["piston"], p_pos, pin), _body_marker(mbs, h.bodies["linkage"], l_pos, pin),
-        (1, 0, 1, 0, 0, 0), "piston_linkage")
+        mbs, _body_marker(mbs, h.bodies["piston"], p_pos, pin),
+        _body_marker(mbs, h.bodies["linkage"], l_pos, pin), (1, 0, 1, 0, 0, 0), "piston_linkage")
     # struts: universal joint at the linkage (twist about the strut axis locked), spherical at the pad
     for side, top in (("left", left), ("right", right)):
         foot = np.array([top[0], top[1], z_l])
@@ -488,8 +620,8 @@ def add_rig(mbs, frame_markers: dict, frame_positions: dict, foundation, params:
         h.bodies[name], h.nodes[name] = _rigid_body(
             mbs, name, s_pos, p.strut_mass_kg, (0.05, 0.05, float(top[2] - foot[2])), (0.1, 0.7, 0.8, 1), lg)
         h.joints[f"{name}_linkage"] = generic_joint(
-            mbs, _body_marker(mbs, h.bodies["linkage"], l_pos, foot), _body_marker(mbs, h.bodies[name], s_pos, foot),
-            (1, 1, 1, 0, 0, 1), f"{name}_linkage")
+            mbs, _body_marker(mbs, h.bodies["linkage"], l_pos, foot),
+            _body_marker(mbs, h.bodies[name], s_pos, foot), (1, 1, 1, 0, 0, 1), f"{name}_linkage")
         h.joints[f"{name}_frame"] = mbs.AddObject(eii.ObjectJointSpherical(
             name=f"{name}_frame",
             markerNumbers=[_body_marker(mbs, h.bodies[name], s_pos, top),
@@ -500,8 +632,8 @@ def add_rig(mbs, frame_markers: dict, frame_positions: dict, foundation, params:
     g = fs - [0.0, p.front_strut_length_m, 0.0]
     f_pos = 0.5 * (g + fs)
     h.bodies["front_strut"], h.nodes["front_strut"] = _rigid_body(
-        mbs, "front_strut", f_pos, p.front_strut_mass_kg, (0.04, p.front_strut_length_m, 0.04), (0.1, 0.2, 0.9, 1),
-        lg)
+        mbs, "front_strut", f_pos, p.front_strut_mass_kg, (0.04, p.front_strut_length_m, 0.04),
+        (0.1, 0.2, 0.9, 1), lg)
     h.joints["front_strut_ground"] = generic_joint(
         mbs, ground_marker(mbs, h.ground, g), _body_marker(mbs, h.bodies["front_strut"], f_pos, g),
         (1, 1, 1, 0, 1, 0), "front_strut_ground")  # universal joint: twist about y locked

@@ -225,6 +225,16 @@ _BY_NAME = {s.name: s for s in SENSORS}
 def sensor(name: str) -> Sensor:
     """Return the sensor called ``name`` (Table 8 name, or a text spelling in ALIASES).
 
+    Parameters
+    ----------
+    name : str
+        Sensor name as in the thesis's Table 8 (e.g. 'ARFVZ') or an alias from :data:`ALIASES`.
+
+    Returns
+    -------
+    Sensor
+        Its Appendix-A data (name, component, direction, position, sensitivity).
+
     Raises
     ------
     InputError
@@ -248,6 +258,16 @@ def z_sensors() -> tuple[Sensor, ...]:
 
 def sensors_on(component: str) -> tuple[Sensor, ...]:
     """Return the sensors on ``component`` (one of :data:`COMPONENTS`).
+
+    Parameters
+    ----------
+    component : str
+        Component name, one of :data:`COMPONENTS` (e.g. 'frame', 'tank_left').
+
+    Returns
+    -------
+    tuple of Sensor
+        Its sensors in Table 8 order (empty if it carries none).
 
     Raises
     ------

@@ -228,7 +228,20 @@ class SensorAttachment:
 
 @dataclass
 class InterfaceHandle:
-    """An interface patch of a flexible body: its rigid marker and global centre (m)."""
+    """An interface patch of a flexible body: its rigid marker and global centre (m).
+
+    Attributes
+    ----------
+    body : str
+        Name of the flexible body carrying the patch (a key of ``Model.bodies``).
+    name : str
+        Interface name on that body (e.g. 'front_strut', 'rear_left').
+    marker : int
+        Exudyn marker number of the patch's rigid marker (``MarkerSuperElementRigid`` or the
+        constant-matrix body's equivalent).
+    position_m : ndarray, shape (3,)
+        Global position of the patch centre in the reference configuration (m).
+    """
 
     body: str
     name: str
@@ -268,6 +281,9 @@ class Model:
     output_gains : dict sensor name -> float
         True sensitivity / stated sensitivity of a sensor (a calibration error; applied to
         the simulated channel, 1 if absent).
+    assembled : bool
+        True once :meth:`assemble` has run (``mbs.Assemble()``); items added after it need
+        another ``assemble()``.
     """
 
     variant: int
@@ -299,7 +315,7 @@ class Model:
 
 
 def _damping_for(damping, body: str, component: str | None) -> Callable[[np.ndarray], np.ndarray]:
-    """The damping function of ``body`` under the damping choice ``damping``."""
+    """Return the damping function of ``body`` under the damping choice ``damping``."""
     if isinstance(damping, str):
         return damping_function(damping)
     if isinstance(damping, PerBody):
@@ -333,8 +349,28 @@ def _damping_label(damping) -> str:
     return getattr(damping, "__name__", type(damping).__name__)
 
 
-def model_bodies(variant: int, mesh_size="production", cache_dir=None, progress: Callable | None = None) -> dict:
+def model_bodies(
+    variant: int, mesh_size="production", cache_dir=None, progress: Callable | None = None
+) -> dict:
     """Build or load the flexible bodies of ``variant``: name -> FlexibleBodyData.
+
+    Parameters
+    ----------
+    variant : {1, 2, 3}
+        Thesis model: 1 (chassis, simple joints), 2 (chassis, detailed joints) or 3 (separate
+        component bodies); every variant also gets the 'rear_foundation'.
+    mesh_size : {'production', 'coarse'} or float
+        Mesh of every body (a float: maximum element size in m).
+    cache_dir : path, optional
+        Flexible-body cache (default ``$EXUDYN_STUDY_CACHE`` or ``~/.cache/exudyn_study``).
+    progress : callable, optional
+        Called with a short text (``"flexible body <name>"``) before each body is built or loaded.
+
+    Returns
+    -------
+    dict
+        Body name ('chassis' or the Model-3 components, and 'rear_foundation') ->
+        :class:`~exudyn_study.bodies.spec.FlexibleBodyData`.
 
     Raises
     ------
@@ -345,7 +381,8 @@ def model_bodies(variant: int, mesh_size="production", cache_dir=None, progress:
 
     _check_variant(variant)
     if variant in (1, 2):
-        specs = {"chassis": BodySpec(joint_model="simple" if variant == 1 else "detailed", mesh_size=mesh_size)}
+        joint_model = "simple" if variant == 1 else "detailed"
+        specs = {"chassis": BodySpec(joint_model=joint_model, mesh_size=mesh_size)}
     else:
         specs = {c: BodySpec(component=c, mesh_size=mesh_size) for c in MODEL3_COMPONENTS}
     specs["rear_foundation"] = BodySpec(kind="rear_foundation", mesh_size=mesh_size)
@@ -369,7 +406,7 @@ def build_model(
     bushing: BushingParameters | None = None,
     cache_dir=None,
     formulation: str = "linear",
-    rig: RigParameters = RigParameters(),
+    rig: RigParameters | None = None,
     sensors: Sequence[str] | None = None,
     progress: Callable | None = None,
     marker_nodes: int | None = 6,
@@ -393,7 +430,8 @@ def build_model(
         Flexible-body cache (default ``$EXUDYN_STUDY_CACHE`` or ``~/.cache/exudyn_study``).
     formulation : {'linear', 'ffrf'}
         Flexible-body formulation (see the module docstring).
-    rig : RigParameters
+    rig : RigParameters, optional
+        Rig masses, lengths and stiffnesses (default ``RigParameters()``).
     sensors : sequence of str, optional
         Sensor names to attach (default: all 42 of Appendix A).
     progress : callable, optional
@@ -414,7 +452,9 @@ def build_model(
     """
     _check_variant(variant)
     if bushing is not None and variant != 3:
-        raise InputError(f"bushing given for model {variant}; bushings join the separate bodies of model 3 only")
+        raise InputError(
+            f"bushing given for model {variant}; bushings join the separate bodies of model 3 only"
+        )
     data = model_bodies(variant, mesh_size, cache_dir, progress)
     model = build_model_from_bodies(
         data, variant=variant, damping=damping, bushing=bushing, formulation=formulation, rig=rig,
@@ -429,7 +469,7 @@ def build_model_from_bodies(
     damping="adams-default",
     bushing: BushingParameters | None = None,
     formulation: str = "linear",
-    rig: RigParameters = RigParameters(),
+    rig: RigParameters | None = None,
     sensors: Sequence[str] | None = None,
     marker_nodes: int | None = 6,
     exudyn_mesh: str = "all",
@@ -497,7 +537,9 @@ def build_model_from_bodies(
     mbs = sc.AddSystem()
     ground = mbs.AddObject(eii.ObjectGround(name="ground"))
     handles, ratios, components = {}, {}, {}
-    colors = {"chassis": (0.2, 0.5, 0.9, 1), "frame": (0.2, 0.5, 0.9, 1), "rear_foundation": (0.6, 0.6, 0.6, 1)}
+    colors = {
+        "chassis": (0.2, 0.5, 0.9, 1), "frame": (0.2, 0.5, 0.9, 1), "rear_foundation": (0.6, 0.6, 0.6, 1),
+    }
     for name, fb in bodies.items():
         comp = None if name == "chassis" else ("rear_foundation" if name == "rear_foundation" else name)
         components[name] = comp
@@ -521,8 +563,9 @@ def build_model_from_bodies(
         for b, h in handles.items() for n in h.interface_markers
     }
     frame = handles[frame_name]
-    rig_handles = add_rig(mbs, frame.interface_markers, frame.interface_positions_m, handles["rear_foundation"],
-                          rig, ground=ground, lie_group_nodes=element == "matrix")
+    rig_handles = add_rig(mbs, frame.interface_markers, frame.interface_positions_m,
+                          handles["rear_foundation"], RigParameters() if rig is None else rig,
+                          ground=ground, lie_group_nodes=element == "matrix")
     joints = dict(rig_handles.joints)
 
     if frame_name == "frame":  # Model 3: join the components to the frame
@@ -574,7 +617,9 @@ def _sensor_nodes(bodies: Mapping, components: dict, sensor_list) -> list:
         if body_name is None and "chassis" in bodies:
             body_name = "chassis"
         if body_name is None:
-            raise InputError(f"sensor {s.name!r} sits on {s.component!r}, which no body of this model carries")
+            raise InputError(
+                f"sensor {s.name!r} sits on {s.component!r}, which no body of this model carries"
+            )
         body = bodies[body_name].body
         if components[body_name] is None:
             candidates = np.intersect1d(body.component_nodes(s.component), _surface_nodes(body))
@@ -620,7 +665,10 @@ def _attach_sensors(mbs, handles: dict, chosen: list) -> dict:
         if key not in node_sensor:
             local = handles[body_name].__dict__.get("mesh_node_map", {}).get(node, node)
             node_sensor[key] = mbs.AddSensor(eii.SensorSuperElement(
-                name=f"acc:{s.name}", bodyNumber=handles[body_name].object_number, meshNodeNumber=int(local),
-                outputVariableType=exu.OutputVariableType.Acceleration, storeInternal=True, writeToFile=False))
-        out[s.name] = SensorAttachment(s, body_name, node, dist, _DIRECTION[s.direction].copy(), node_sensor[key])
+                name=f"acc:{s.name}", bodyNumber=handles[body_name].object_number,
+                meshNodeNumber=int(local), outputVariableType=exu.OutputVariableType.Acceleration,
+                storeInternal=True, writeToFile=False))
+        out[s.name] = SensorAttachment(
+            s, body_name, node, dist, _DIRECTION[s.direction].copy(), node_sensor[key]
+        )
     return out

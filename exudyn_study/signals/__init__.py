@@ -1,4 +1,6 @@
-"""Signals: the rig's drive signals and resampling (``drives``), relative pseudo damage
+"""Signals: drive signals, resampling, relative pseudo damage and drive iteration.
+
+The rig's drive signals and resampling (``drives``), relative pseudo damage
 (``fatigue``, ``fatigue_plots``) and drive iteration (``drive_iteration``).
 
 The drive-signal functions are re-exported here (``from exudyn_study.signals import white_noise``).

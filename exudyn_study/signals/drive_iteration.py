@@ -133,7 +133,18 @@ class DriveFRF:
         return 2 * (self.freq_hz.size - 1)
 
     def at(self, freq_hz: np.ndarray) -> np.ndarray:
-        """H interpolated (real and imaginary part, linear) at ``freq_hz``, shape (n_control, n)."""
+        """H interpolated (real and imaginary part, linear) at ``freq_hz``, shape (n_control, n).
+
+        Parameters
+        ----------
+        freq_hz : array_like, shape (n,)
+            Frequencies (Hz); beyond the grid the end values are held.
+
+        Returns
+        -------
+        ndarray, complex, shape (n_control, n)
+            Response of each control channel per unit drive, in the units of ``H``.
+        """
         f = np.asarray(freq_hz, dtype=float)
         return np.array(
             [

@@ -187,13 +187,28 @@ def test_signal(
 ) -> np.ndarray:
     """Road-like test displacement: more energy at 5-26 Hz and just below 40 Hz.
 
-    The PSD follows :func:`test_signal_shape` (band 3-60 Hz). Parameters, returns and
-    errors as :func:`white_noise`.
+    The PSD follows :func:`test_signal_shape` (band 3-60 Hz).
+
+    Parameters
+    ----------
+    duration_s : float
+        Length in s (>= 1 s).
+    sample_rate_hz : float
+        Sampling rate in Hz (> 120 Hz).
+    rms_m : float, optional
+        Rms displacement in m (default :data:`DEFAULT_RMS_M`, 0.25 mm).
+    seed : int, optional
+        Seed of the random generator; equal seeds give identical signals.
 
     Returns
     -------
     ndarray, shape (round(duration_s * sample_rate_hz),)
         Displacement in m with exactly ``rms_m`` rms.
+
+    Raises
+    ------
+    InputError
+        As :func:`white_noise`.
     """
     n = _check_common(duration_s, sample_rate_hz, rms_m, seed)
     return _shaped_noise(n, sample_rate_hz, rms_m, seed, test_signal_shape)
@@ -209,6 +224,17 @@ def test_signal_50(
 
     ``rms_m`` is the rms of the full-amplitude test signal, so the result has
     ``rms_m / 2`` rms and is sample by sample half of :func:`test_signal`.
+
+    Parameters
+    ----------
+    duration_s : float
+        Length in s (>= 1 s).
+    sample_rate_hz : float
+        Sampling rate in Hz (> 120 Hz).
+    rms_m : float, optional
+        Rms displacement in m of the full-amplitude signal (default :data:`DEFAULT_RMS_M`).
+    seed : int, optional
+        Seed of the random generator; equal seeds give identical signals.
 
     Returns
     -------
@@ -271,6 +297,18 @@ def acceleration_rms_of_flat_band(rms_m: float, band_hz: tuple[float, float]) ->
 
     ``a_rms = x_rms (2 pi)^2 sqrt((f2^5 - f1^5) / (5 (f2 - f1)))``; used to choose a
     realistic drive amplitude.
+
+    Parameters
+    ----------
+    rms_m : float
+        Rms displacement (m).
+    band_hz : tuple of 2 float
+        ``(f1, f2)``: the band of the flat displacement PSD (Hz), ``f2 > f1``.
+
+    Returns
+    -------
+    float
+        Rms acceleration (m/s^2).
     """
     f1, f2 = band_hz
     return rms_m * (2 * math.pi) ** 2 * math.sqrt((f2**5 - f1**5) / (5 * (f2 - f1)))
@@ -286,6 +324,18 @@ def rational_ratio(from_hz: float, to_hz: float, max_denominator: int = 100_000)
 
     Rates are read as the decimals they print as, so 1000 Hz -> 204.8 Hz gives
     exactly (128, 625).
+
+    Parameters
+    ----------
+    from_hz, to_hz : float
+        Source and target sample rates (Hz), finite and > 0.
+    max_denominator : int
+        Largest ``up`` or ``down`` accepted.
+
+    Returns
+    -------
+    up, down : int
+        Upsampling and downsampling factors.
 
     Raises
     ------

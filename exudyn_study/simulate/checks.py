@@ -16,10 +16,26 @@ from exudyn_study.errors import InputError
 from exudyn_study.simulate.drive import OUTPUT_RATE_HZ
 
 
-def band_limited_rms_error(x, reference, rate_hz: float = OUTPUT_RATE_HZ, f_max_hz: float = 70.0) -> np.ndarray:
+def band_limited_rms_error(
+    x, reference, rate_hz: float = OUTPUT_RATE_HZ, f_max_hz: float = 70.0
+) -> np.ndarray:
     """Relative rms error per channel of ``x`` vs ``reference`` below ``f_max_hz`` (FFT band limit).
 
-    Both shape (n_channels, n_samples); returns shape (n_channels,).
+    Parameters
+    ----------
+    x : array_like, shape (n_channels, n_samples)
+        The signal to judge (1-D: one channel).
+    reference : array_like, shape (n_channels, n_samples)
+        The reference, same units and sampling.
+    rate_hz : float
+        Sample rate (Hz).
+    f_max_hz : float
+        Highest frequency of the comparison (Hz).
+
+    Returns
+    -------
+    ndarray, shape (n_channels,)
+        ``||X - R|| / ||R||`` over the FFT lines up to ``f_max_hz`` (dimensionless).
     """
     x = np.atleast_2d(np.asarray(x, dtype=float))
     r = np.atleast_2d(np.asarray(reference, dtype=float))
@@ -38,9 +54,21 @@ def log_decrement_damping(x, rate_hz: float = OUTPUT_RATE_HZ, skip_cycles: int =
     linearly against peak time: slope ``-sigma``, mean spacing ``T_d``; the decrement per
     cycle ``delta = sigma T_d`` gives ``zeta = delta / sqrt(4 pi^2 + delta^2)``.
 
+    Parameters
+    ----------
+    x : array_like, shape (n_samples,)
+        The free decay (any unit).
+    rate_hz : float
+        Sample rate (Hz).
+    skip_cycles : int
+        Positive peaks left out at the start (the decay of other modes and the release).
+    n_cycles : int, optional
+        Peaks used after the skipped ones (default: all).
+
     Returns
     -------
     zeta : float
+        Damping ratio.
     frequency_hz : float
         Undamped natural frequency ``f_d / sqrt(1 - zeta^2)``.
     """
@@ -66,10 +94,27 @@ def estimate_frf(drive, accelerations, rate_hz: float = OUTPUT_RATE_HZ, nperseg:
                  skip_s: float = 1.0, overlap: float = 0.5) -> tuple[np.ndarray, np.ndarray]:
     """H1 estimate (Welch, Hann, ``overlap``) of drive -> each acceleration channel.
 
+    Parameters
+    ----------
+    drive : array_like, shape (n_samples,)
+        Drive displacement (m), sampled with the accelerations.
+    accelerations : array_like, shape (n_channels, n_samples)
+        Sensor accelerations (m/s^2).
+    rate_hz : float
+        Sample rate (Hz).
+    nperseg : int
+        Welch segment length (samples).
+    skip_s : float
+        Initial time left out (s): the transient from rest.
+    overlap : float
+        Segment overlap as a fraction of ``nperseg``, in [0, 1).
+
     Returns
     -------
     f : ndarray, shape (n_f,)
+        Frequencies (Hz).
     H : ndarray, complex, shape (n_channels, n_f)
+        H1 in (m/s^2)/m.
     """
     k0 = int(round(skip_s * rate_hz))
     u = np.asarray(drive, dtype=float)[k0:]
@@ -93,6 +138,30 @@ def frf_db_error(h_est, h_model, f, band_hz=(3.5, 59.0), antiresonance_db: float
     ``exclude_peaks_hz``: resonances to leave out (``exclude_hz`` either side), e.g. those
     whose half-power bandwidth ``2 zeta f`` is narrower than the estimate's resolution,
     where any windowed estimate is biased low.
+
+    Parameters
+    ----------
+    h_est : array_like, complex, shape (n_channels, n_f)
+        The FRF estimate.
+    h_model : array_like, complex, shape (n_channels, n_f)
+        The model's FRF at the same frequencies, same units.
+    f : array_like, shape (n_f,)
+        Frequencies (Hz).
+    band_hz : tuple of 2 float
+        Compared band (Hz).
+    antiresonance_db : float
+        Depth (dB) below the smaller neighbouring maximum that makes a minimum an antiresonance.
+    exclude_hz : float
+        Half width (Hz) left out around antiresonances and ``exclude_peaks_hz``.
+    dynamic_range_db : float
+        Frequencies where ``|H_model|`` is this far (dB) below its maximum in the band are left out.
+    exclude_peaks_hz : sequence of float
+        Resonance frequencies (Hz) to leave out.
+
+    Returns
+    -------
+    ndarray, shape (n_channels,)
+        Largest absolute dB error per channel (NaN where no frequency is left).
     """
     f = np.asarray(f)
     h_est, h_model = np.atleast_2d(h_est), np.atleast_2d(h_model)

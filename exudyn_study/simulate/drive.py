@@ -63,11 +63,14 @@ def prepare_drive(signal="white-noise", duration_s: float = 80.0, rms_m: float |
         x = np.asarray(signal, dtype=float).ravel()
         bad = ~np.isfinite(x)
         if bad.any():
-            raise InputError(f"drive signal has non-finite samples, the first at index {int(np.flatnonzero(bad)[0])}")
-        if sample_rate_hz is None or not any(abs(sample_rate_hz - r) < 1e-9 for r in (DRIVE_RATE_HZ, OUTPUT_RATE_HZ)):
             raise InputError(
-                f"drive signal sampled at {sample_rate_hz!r} Hz; expected {DRIVE_RATE_HZ} Hz (the rig's drive "
-                f"channel) or {OUTPUT_RATE_HZ} Hz")
+                f"drive signal has non-finite samples, the first at index {int(np.flatnonzero(bad)[0])}"
+            )
+        rates = (DRIVE_RATE_HZ, OUTPUT_RATE_HZ)
+        if sample_rate_hz is None or not any(abs(sample_rate_hz - r) < 1e-9 for r in rates):
+            raise InputError(
+                f"drive signal sampled at {sample_rate_hz!r} Hz; expected {DRIVE_RATE_HZ} Hz "
+                f"(the rig's drive channel) or {OUTPUT_RATE_HZ} Hz")
         if abs(sample_rate_hz - DRIVE_RATE_HZ) < 1e-9:
             x = resample(x, DRIVE_RATE_HZ, OUTPUT_RATE_HZ)
         if x.size < 8:

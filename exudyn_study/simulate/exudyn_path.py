@@ -117,7 +117,19 @@ class IntegratorSettings:
                              "None (scale-aware)")
 
     def radius(self, constrained: bool) -> float:
-        """Return the spectral radius used: the given one or the path's default (``spectral_radius``)."""
+        """Return the spectral radius used: the given one or the path's default (``spectral_radius``).
+
+        Parameters
+        ----------
+        constrained : bool
+            True for the constrained full-model path (default :data:`CONSTRAINED_SPECTRAL_RADIUS`),
+            False for the reduced path (default 1, no numerical damping).
+
+        Returns
+        -------
+        float
+            Generalised-alpha spectral radius at infinity, in [0, 1].
+        """
         if self.spectral_radius is not None:
             return float(self.spectral_radius)
         return CONSTRAINED_SPECTRAL_RADIUS if constrained else 1.0
@@ -208,8 +220,8 @@ def _checked_stats(out: np.ndarray, settings, mbs, wall: float, cpu: float, dura
     if bad.any():
         k = int(np.flatnonzero(bad.any(axis=0))[0])
         raise SimulationError(
-            f"the simulation diverged at t = {k / OUTPUT_RATE_HZ:.4f} s (sensor accelerations non-finite or "
-            f"above {settings.divergence_limit:g} m/s^2); try a smaller step")
+            f"the simulation diverged at t = {k / OUTPUT_RATE_HZ:.4f} s (sensor accelerations non-finite "
+            f"or above {settings.divergence_limit:g} m/s^2); try a smaller step")
     stats = {"wall_s": wall, "cpu_s": cpu, "real_time_factor": duration / wall if wall > 0 else float("inf"),
              "cpu_real_time_factor": duration / cpu if cpu > 0 else float("inf"), "steps": n_steps}
     solver = mbs.sys.get("dynamicSolver")

@@ -87,7 +87,8 @@ def simulate_exudyn_reduced(lin, drive, settings: IntegratorSettings = REDUCED_S
     mbs.AddObject(eii.ObjectGenericODE2(nodeNumbers=[node], massMatrix=container(lin.mass),
                                         stiffnessMatrix=container(lin.stiffness),
                                         dampingMatrix=container(lin.damping), forceUserFunction=force))
-    sensor = mbs.AddSensor(eii.SensorNode(nodeNumber=node, outputVariableType=exu.OutputVariableType.Coordinates_tt,
+    sensor = mbs.AddSensor(eii.SensorNode(nodeNumber=node,
+                                          outputVariableType=exu.OutputVariableType.Coordinates_tt,
                                           storeInternal=True, writeToFile=False))
     mbs.Assemble()
     n_samples = drive.samples.size
@@ -99,8 +100,9 @@ def simulate_exudyn_reduced(lin, drive, settings: IntegratorSettings = REDUCED_S
     try:
         mbs.SolveDynamic(ss, solverType=exu.DynamicSolverType.GeneralizedAlpha, storeSolver=True)
     except Exception as exc:
-        raise SimulationError(f"Exudyn time integration failed at t = {float(mbs.systemData.GetTime()):.4f} s: "
-                              f"{exc}") from None
+        raise SimulationError(
+            f"Exudyn time integration failed at t = {float(mbs.systemData.GetTime()):.4f} s: {exc}"
+        ) from None
     wall, cpu = time.perf_counter() - t0, time.process_time() - c0
     data = np.asarray(mbs.GetSensorStoredData(sensor))
     if data.shape[0] < n_samples:

@@ -70,7 +70,7 @@ METHODS = ("exudyn", "exudyn-reduced", "linear")
 # --------------------------------------------------------------------------------------- recordings
 def simulate(model, signal="white-noise", duration_s: float = 80.0, method: str = "exudyn", seed: int = 0,
              rms_m: float | None = None, drive_rate_hz: float | None = None,
-             settings: IntegratorSettings = IntegratorSettings(), progress: bool = False) -> Recording:
+             settings: IntegratorSettings | None = None, progress: bool = False) -> Recording:
     """Simulate ``model`` on the rig and return a :class:`Recording`.
 
     Parameters
@@ -84,7 +84,9 @@ def simulate(model, signal="white-noise", duration_s: float = 80.0, method: str 
     rms_m : float, optional
     drive_rate_hz : float, optional
         Rate of given drive samples.
-    settings : IntegratorSettings
+    settings : IntegratorSettings, optional
+        Time-integration settings of the Exudyn methods (default ``IntegratorSettings()``; for
+        'exudyn-reduced' the default means ``REDUCED_SETTINGS``).
     progress : bool
 
     Returns
@@ -107,8 +109,11 @@ def simulate(model, signal="white-noise", duration_s: float = 80.0, method: str 
         raise InputError(f"method {method!r}; expected one of {list(METHODS)}")
     if getattr(model, "local_nonlinearities", None) and method != "linear":
         names = [el.name for el in model.local_nonlinearities]
-        raise InputError(f"the model has local nonlinear elements {names}; method {method!r} integrates only its "
-                         "Exudyn items: use method='linear' (linear model + local nonlinearities)")
+        raise InputError(
+            f"the model has local nonlinear elements {names}; method {method!r} integrates only its "
+            "Exudyn items: use method='linear' (linear model + local nonlinearities)")
+    if settings is None:
+        settings = IntegratorSettings()
     x = prepare_drive(signal, duration_s, rms_m, seed, drive_rate_hz)
     if method == "exudyn":
         acc, stats = simulate_exudyn(model, x, settings, progress=progress)
@@ -142,8 +147,8 @@ def simulate(model, signal="white-noise", duration_s: float = 80.0, method: str 
         if name in gains:
             acc[i] = acc[i] * float(gains[name])
         s = model.sensors[name].sensor
-        channels.append(Channel(name, "acceleration", "m/s^2", s.direction, s.position_m, OUTPUT_RATE_HZ, acc[i],
-                                sensitivity=s.sensitivity))
+        channels.append(Channel(name, "acceleration", "m/s^2", s.direction, s.position_m, OUTPUT_RATE_HZ,
+                                acc[i], sensitivity=s.sensitivity))
     channels.append(Channel("drive", "displacement", "m", "Z", None, DRIVE_RATE_HZ, drive_out, role="drive"))
     meta = {k: v for k, v in model.metadata.items() if isinstance(v, (str, int, float))}
     meta.update(

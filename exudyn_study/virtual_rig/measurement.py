@@ -292,7 +292,20 @@ def servo_response(command, fs: float, params: ServoParameters = ServoParameters
 
 
 def anti_alias_gain(freq_hz, params: AcquisitionParameters = AcquisitionParameters()) -> np.ndarray:
-    """Magnitude of the anti-alias filter at ``freq_hz`` (Butterworth of order ``aa_order``)."""
+    """Magnitude of the anti-alias filter at ``freq_hz`` (Butterworth of order ``aa_order``).
+
+    Parameters
+    ----------
+    freq_hz : array_like
+        Frequencies (Hz), any shape.
+    params : AcquisitionParameters
+        The acquisition chain (``aa_order``, ``aa_cutoff_ratio``, ``output_rate_hz``).
+
+    Returns
+    -------
+    ndarray, shape of ``freq_hz``
+        Filter gain (dimensionless, 1 at 0 Hz).
+    """
     fc = params.aa_cutoff_ratio * params.output_rate_hz
     return 1.0 / np.sqrt(1.0 + (np.asarray(freq_hz, dtype=float) / fc) ** (2 * params.aa_order))
 

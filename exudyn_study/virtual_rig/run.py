@@ -4,7 +4,8 @@
 
 1. the commanded drive (:mod:`exudyn_study.signals`, the scenario's seed and rms times ``level``);
 2. the achieved piston displacement: the command through the servo drive
-   (:func:`~exudyn_study.virtual_rig.measurement.servo_response`, drop-offs near 12 and 26 Hz, tracking error);
+   (:func:`~exudyn_study.virtual_rig.measurement.servo_response`, drop-offs near 12 and 26 Hz,
+   tracking error);
 3. the truth model: the scenario's nominal variant with its augmentations applied
    (:func:`build_truth`), simulated with the achieved drive (linear model + local
    nonlinearities, exact between sub-steps);
@@ -47,7 +48,7 @@ DEFAULT_DURATION_S = {"white-noise": 120.0, "test": 60.0, "test-50": 60.0}
 
 
 def build_truth(sc: Scenario, bodies=None, sensors=None, cache_dir=None):
-    """The scenario's truth model (not assembled) and the :class:`~exudyn_study.physics.Applied` records.
+    """Build the truth model of ``sc`` (not assembled) and the :class:`~exudyn_study.physics.Applied` records.
 
     Parameters
     ----------
@@ -57,6 +58,16 @@ def build_truth(sc: Scenario, bodies=None, sensors=None, cache_dir=None):
         small ones); default: the variant's chassis bodies from the cache.
     sensors : sequence of str, optional
         Sensors to attach (default all 42).
+    cache_dir : path, optional
+        Flexible-body cache when ``bodies`` is None (default ``$EXUDYN_STUDY_CACHE`` or
+        ``~/.cache/exudyn_study``).
+
+    Returns
+    -------
+    model : exudyn_study.model.Model
+        The nominal variant with the scenario's augmentations applied.
+    applied : list of Applied
+        One record per augmentation, in the scenario's order.
     """
     from exudyn_study.bodies.damping import parse_damping
     from exudyn_study.model.variants import BushingParameters, build_model, build_model_from_bodies
@@ -147,13 +158,37 @@ def virtual_recording(
 
 
 def recording_name(sc_name: str, signal: str, level: float = 1.0) -> str:
-    """File name of a virtual recording: ``<scenario>_<signal>.h5`` (``_L<level>`` if level != 1)."""
+    """File name of a virtual recording: ``<scenario>_<signal>.h5`` (``_L<level>`` if level != 1).
+
+    Parameters
+    ----------
+    sc_name : str
+        Scenario name.
+    signal : str
+        Drive signal name (e.g. 'white-noise').
+    level : float
+        Drive amplitude relative to the scenario's.
+
+    Returns
+    -------
+    str
+    """
     tag = "" if level == 1.0 else f"_L{level:g}"
     return f"{sc_name}_{signal}{tag}.h5"
 
 
 def truth_name(sc_name: str) -> str:
-    """File name of a scenario's truth: ``<scenario>_truth.json``."""
+    """File name of a scenario's truth: ``<scenario>_truth.json``.
+
+    Parameters
+    ----------
+    sc_name : str
+        Scenario name.
+
+    Returns
+    -------
+    str
+    """
     return f"{sc_name}_truth.json"
 
 
@@ -174,6 +209,21 @@ def run_virtual_test(
     cache_dir=None,
 ) -> list[Path]:
     """Write the recordings of ``sc`` for each signal and level, and its truth file, into ``out_dir``.
+
+    Parameters
+    ----------
+    sc : Scenario or str
+        The scenario, or the name of a registered one.
+    signals : sequence of {'white-noise', 'test', 'test-50'}
+        Drive signals, one recording each (per level).
+    out_dir : path
+        Existing output directory.
+    duration_s : float, optional
+        Length of every recording (s); default :data:`DEFAULT_DURATION_S` per signal.
+    levels : sequence of float
+        Drive amplitudes relative to the scenario's (0.01 to 4), one recording each (per signal).
+    bodies, sensors, cache_dir
+        See :func:`build_truth`.
 
     Returns
     -------

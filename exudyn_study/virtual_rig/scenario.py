@@ -1,4 +1,4 @@
-"""What a virtual-rig scenario is: a truth model (:class:`Scenario`) with its augmentations (:class:`Augment`).
+"""What a virtual-rig scenario is: a truth model (:class:`Scenario`) and its augmentations (:class:`Augment`).
 
 Also the thesis's Table 1 (:data:`THESIS_TABLE1`), which the thesis scenarios are tuned against.
 """
@@ -30,13 +30,33 @@ THESIS_TABLE1 = (
 
 @dataclass(frozen=True)
 class Augment:
-    """One catalogue entry applied at a location with parameters (SI, the entry's units)."""
+    """One catalogue entry applied at a location with parameters (SI, the entry's units).
+
+    Parameters
+    ----------
+    physics : str
+        Name of the catalogue entry (:func:`exudyn_study.physics.catalogue.entry`), e.g.
+        'joint_stiffness'.
+    location : str, optional
+        Where the entry applies (an interface, body or side the entry accepts); None for entries
+        with one place.
+    parameters : mapping str -> float
+        The entry's parameters by name, in its units (SI); missing ones take the entry's defaults.
+    """
 
     physics: str
     location: str | None = None
     parameters: Mapping[str, float] = field(default_factory=dict)
 
     def as_dict(self) -> dict:
+        """Return the augmentation as a JSON-able dict.
+
+        Returns
+        -------
+        dict
+            ``{"physics": str, "location": str or None, "parameters": {name: float}}``, the parameters in
+            the catalogue entry's units (SI).
+        """
         return {
             "physics": self.physics,
             "location": self.location,
@@ -98,7 +118,18 @@ class Scenario:
             entry(a.physics).resolve(**dict(a.parameters))
 
     def with_seed(self, seed: int) -> Scenario:
-        """The same truth with another seed (drive, servo and sensor noise)."""
+        """Return the same truth with another seed (drive, servo and sensor noise).
+
+        Parameters
+        ----------
+        seed : int
+            Seed of the drive signal, the servo tracking error and the sensor noise.
+
+        Returns
+        -------
+        Scenario
+            A copy whose ``seed``, ``servo.seed`` and ``acquisition.seed`` are all ``seed``.
+        """
         return dataclasses.replace(
             self,
             seed=int(seed),

@@ -249,7 +249,21 @@ THESIS_PARAMETERS = {
 }
 
 def thesis_augmentations(parameters: dict = THESIS_PARAMETERS) -> tuple[Augment, ...]:
-    """Return the catalogue entries of the thesis truth (``parameters``: :data:`THESIS_PARAMETERS` layout)."""
+    """Return the catalogue entries of the thesis truth (``parameters``: :data:`THESIS_PARAMETERS` layout).
+
+    Parameters
+    ----------
+    parameters : dict
+        Entry parameters in the layout of :data:`THESIS_PARAMETERS` ('joints', 'drive_linkage' and
+        'modal_damping'; optionally 'rear_support', 'sloshing', 'tank_wall_mode', 'bushing_pad',
+        'bushing_cubic_n_per_m3', 'bushing_compression_cubic_n_per_m3'), SI units as in that table.
+
+    Returns
+    -------
+    tuple of Augment
+        One augmentation per joint, the drive linkage, each further entry given, and one per
+        modal-damping row.
+    """
     aug = []
     for key, (kt, kr, t, *rest) in parameters["joints"].items():
         values = {"stiffness_n_per_m": kt, "rotational_stiffness_n_m_per_rad": kr, "damping_time_s": t}

@@ -156,6 +156,16 @@ class FEModel:
     def component_nodes(self, component: str) -> np.ndarray:
         """Node indices of all regions that belong to ``component`` (sorted, unique).
 
+        Parameters
+        ----------
+        component : str
+            Component name (a value of ``region_components``, e.g. 'frame', 'tank_left').
+
+        Returns
+        -------
+        ndarray of int
+            Mesh node indices.
+
         Raises
         ------
         InputError
@@ -170,6 +180,11 @@ class FEModel:
 
 def load_mesh(path: str | os.PathLike):
     """Read a Netgen volume mesh file (``.vol`` or ``.vol.gz``).
+
+    Parameters
+    ----------
+    path : str or os.PathLike
+        The mesh file.
 
     Returns
     -------
@@ -277,7 +292,9 @@ def assemble(ngmesh, parts: Sequence[PartMaterial], *, order: int = 2, check: bo
         )
     unused = [r for r in by_region if r not in regions]
     if unused:
-        raise InputError(f"parts {unused} name regions that are not in the mesh (it has {sorted(set(regions))})")
+        raise InputError(
+            f"parts {unused} name regions that are not in the mesh (it has {sorted(set(regions))})"
+        )
 
     # region volumes, to smear added (non-structural) mass into the density
     volumes = {}

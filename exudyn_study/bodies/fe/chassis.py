@@ -109,6 +109,11 @@ MESH_REFINEMENT = MappingProxyType({
 def mesh_parameters(mesh_size) -> dict:
     """``maxh`` and refinement for a named mesh size or an element size in m.
 
+    Parameters
+    ----------
+    mesh_size : {'coarse', 'production'} or float
+        A key of :data:`MESH_SIZES`, or a maximum element size (m, > 0; refined like 'production').
+
     Returns
     -------
     dict
