@@ -38,6 +38,29 @@ def family_columns(rows: Sequence[Mapping[str, Any]], task: Task) -> list[str]:
     return [n for n in task.summary if n in names]
 
 
+#: what a task's output family is, by its prefix (the x axis of a grouped-bar plot)
+FAMILY_LABELS = {"rpd.": "z sensor", "f.": "mode"}
+
+
+def _config_order(config: SweepConfig, names: Sequence[str], values: Sequence[Any]) -> list:
+    """Sort key of a combination of parameter values: their positions in the configuration."""
+    key = []
+    for name, value in zip(names, values, strict=True):
+        spec = next((p for p in config.parameters if p.name == name), None)
+        grid = spec.grid_values() if spec is not None else []
+        key.append((grid.index(value), "") if value in grid else (len(grid), str(value)))
+    return key
+
+
+def _line_styles(n: int) -> list[tuple]:
+    """``n`` distinguishable (colour, line style, marker) triples: ten colours times three styles."""
+    import matplotlib.pyplot as plt
+
+    colors = plt.get_cmap("tab10").colors
+    styles = [("-", "o"), ("--", "s"), (":", "^")]
+    return [(colors[i % 10], *styles[(i // 10) % 3]) for i in range(n)]
+
+
 def _numeric(values: Sequence[Any]) -> bool:
     return all(isinstance(v, (int, float)) and not isinstance(v, bool) for v in values)
 
@@ -81,12 +104,11 @@ def plot_sweep(rows: Sequence[Mapping[str, Any]], config: SweepConfig, task: Tas
     if not family:
         raise InputError(f"plot: task {task.name!r} has no outputs to plot")
     others = [s for s in swept if s != x]
-    groups = sorted({tuple(r[o] for o in others) for r in ok}, key=lambda g: [str(v) for v in g])
+    groups = sorted({tuple(r[o] for o in others) for r in ok}, key=lambda g: _config_order(config, others, g))
     groups = groups[:MAX_PANELS]
     xs = list(dict.fromkeys(r[x] for r in ok))
     is_num = _numeric(xs)
-    if is_num:
-        xs = sorted(xs)
+    xs = sorted(xs) if is_num else sorted(xs, key=lambda v: _config_order(config, [x], [v]))
     ncol = min(len(groups), 2 if len(groups) > 1 else 1)
     nrow = math.ceil(len(groups) / ncol)
     width = 7.5 * ncol if not is_num else 6 * ncol + 2
@@ -95,7 +117,8 @@ def plot_sweep(rows: Sequence[Mapping[str, Any]], config: SweepConfig, task: Tas
     all_vals = [r[c] for r in ok for c in family if isinstance(r.get(c), (int, float))]
     positive = [v for v in all_vals if v is not None and v > 0 and math.isfinite(v)]
     logy = bool(positive) and len(positive) == len(all_vals) and max(positive) / min(positive) > 100
-    cmap = plt.get_cmap("tab20" if len(family) > 10 and is_num else "viridis")
+    styles = _line_styles(len(family))
+    family_label = FAMILY_LABELS.get(task.plot_prefix, "output")
     for ax, group in zip(axes.ravel(), groups, strict=False):
         sel = [r for r in ok if tuple(r[o] for o in others) == group]
         # mean over replicates (seed) for each x value and family member
@@ -106,7 +129,8 @@ def plot_sweep(rows: Sequence[Mapping[str, Any]], config: SweepConfig, task: Tas
                 table[i] = [np.nanmean([float(r.get(c, np.nan)) for r in at]) for c in family]
         if is_num:
             for j, name in enumerate(family):
-                ax.plot(xs, table[:, j], "o-", ms=3, lw=1, color=cmap(j / max(len(family) - 1, 1)),
+                color, line, marker = styles[j]
+                ax.plot(xs, table[:, j], ls=line, marker=marker, ms=3, lw=1, color=color,
                         label=name.removeprefix(task.plot_prefix))
             ax.set_xlabel(x)
             if min(xs) > 0 and max(xs) / min(xs) >= 10:
@@ -122,6 +146,7 @@ def plot_sweep(rows: Sequence[Mapping[str, Any]], config: SweepConfig, task: Tas
                        color=plt.get_cmap("viridis")(i / max(len(xs) - 1, 1)), label=f"{x} = {xv}")
             ax.set_xticks(pos, [n.removeprefix(task.plot_prefix) for n in family], rotation=90,
                             fontsize=7)
+            ax.set_xlabel(family_label)
         if task.plot_prefix == "rpd.":
             ax.axhline(1.0, color="k", lw=0.8, ls="--")
         if logy:
@@ -139,7 +164,9 @@ def plot_sweep(rows: Sequence[Mapping[str, Any]], config: SweepConfig, task: Tas
                    ncols=2 if len(family) > 16 else 1)
     else:
         fig.legend(handles, labels, loc="outside lower center", fontsize=8, ncols=min(len(xs), 6))
-    fig.suptitle(f"{config.name}: {task.name} against {x}", fontsize=10)
+    what = task.plot_label or ", ".join(family)
+    fig.suptitle(f"{what} per {family_label} against {x} (sweep {config.name!r}, task {task.name!r})",
+                 fontsize=10)
     return fig
 
 
