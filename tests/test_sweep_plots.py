@@ -14,7 +14,8 @@ def _config():
 
 def test_combinations_sort_in_the_order_the_configuration_lists_them():
     cfg = _config()
-    combos = [("test-50", "step"), ("white-noise", "adams-default"), ("test", "step"), ("white-noise", "step")]
+    combos = [("test-50", "step"), ("white-noise", "adams-default"), ("test", "step"),
+              ("white-noise", "step")]
     ordered = sorted(combos, key=lambda c: _config_order(cfg, ["signal", "damping"], c))
     assert ordered == [("white-noise", "step"), ("white-noise", "adams-default"), ("test", "step"),
                        ("test-50", "step")]
