@@ -25,6 +25,7 @@ or in the ``__main__`` of a script guarded by ``if __name__ == '__main__'``).
 
 from __future__ import annotations
 
+import logging
 import math
 import os
 import time
@@ -36,6 +37,8 @@ from typing import Any
 import numpy as np
 
 from exudyn_study.errors import InputError
+
+log = logging.getLogger(__name__)
 
 __all__ = [
     "Parameter",
@@ -579,7 +582,11 @@ def _virtual_measurement(scenario_name: str, signal: str, seed: int, duration_s:
     folder.mkdir(parents=True, exist_ok=True)
     path = folder / f"{sc.name}_{signal}_s{seed}_{duration_s:g}s.h5"
     if path.exists():
-        return read_recording(path)
+        try:
+            return read_recording(path)  # verified by the recording's checksum
+        except InputError as exc:  # damaged (cut short, bytes changed): rebuilt, never used
+            log.warning("cached virtual recording %s is damaged (%s); rebuilding it", path.name, exc)
+            path.unlink(missing_ok=True)
     rec = virtual_recording(sc, signal, duration_s)
     write_recording(rec, path)
     return rec
