@@ -20,6 +20,7 @@ import argparse
 import importlib
 import logging
 import os
+import re
 import sys
 import warnings
 
@@ -54,6 +55,9 @@ class _Parser(argparse.ArgumentParser):
     def error(self, message: str):
         """Print ``PROG: error: MESSAGE (see PROG --help)`` on one line and exit with code 2."""
         text = " ".join(message.split())
+        # 'argument --beta: 0: out of range ...' -> '--beta 0: out of range ...' (option and value first)
+        text = re.sub(r"^argument ([^:]+): ('?[^:' ]*'?): ", r"\1 \2: ", text)
+        text = re.sub(r"^argument ([^:]+): ", r"\1: ", text)
         self.exit(2, f"{self.prog}: error: {text} (see {self.prog} --help)\n")
 
 
@@ -113,7 +117,12 @@ class _WarningPrinter(logging.Handler):
 def main(argv: list[str] | None = None) -> int:
     """Run the console script; returns the process exit code."""
     parser = build_parser()
-    args = parser.parse_args(argv)
+    try:
+        args = parser.parse_args(argv)
+    except SystemExit as exc:  # a usage error (printed on one line) returns its code; --help exits
+        if exc.code in (0, None):
+            raise
+        return int(exc.code)
     if not getattr(args, "_module", None):
         parser.print_help()
         return 1

@@ -38,6 +38,7 @@ __all__ = [
     "DURATION_MAX_S",
     "parse_mesh_option",
     "add_mesh",
+    "add_hidden_alias",
     "add_cache_dir",
     "add_seed",
     "add_damping",
@@ -72,6 +73,8 @@ class HelpFormatter(argparse.ArgumentDefaultsHelpFormatter):
 
 
 def _number_text(value: float) -> str:
+    if float(value).is_integer() and abs(value) < 1e19:
+        return str(int(value))
     return f"{value:g}"
 
 
@@ -119,21 +122,23 @@ class Bounded:
         what = "an integer" if self.kind is int else "a number"
         try:
             if self.kind is int:
-                if len(text.strip().lstrip("+-")) > 19:
-                    raise ValueError
+                digits = text.strip().lstrip("+-")
+                if digits.isdigit() and len(digits) > 30:  # far out of any range; int() of 5000 digits fails
+                    raise argparse.ArgumentTypeError(
+                        f"{text[:12]}...: out of range ({len(digits)} digits); expected {self.describe()}")
                 value = int(text)
             else:
                 value = float(text)
         except ValueError:
-            raise argparse.ArgumentTypeError(f"{text!r} is not {what}; expected {what} "
+            raise argparse.ArgumentTypeError(f"{text!r}: not {what}; expected {what} "
                                              f"{self.describe()}") from None
         if self.kind is float and not math.isfinite(value):
-            raise argparse.ArgumentTypeError(f"{text!r} is not finite; expected {self.describe()}")
+            raise argparse.ArgumentTypeError(f"{text}: not finite; expected {self.describe()}")
         too_low = self.low is not None and (value <= self.low if self.low_open else value < self.low)
         too_high = self.high is not None and value > self.high
         if too_low or too_high:
             reason = f" ({self.reason})" if self.reason else ""
-            raise argparse.ArgumentTypeError(f"{text} is out of range; expected {self.describe()}{reason}")
+            raise argparse.ArgumentTypeError(f"{text}: out of range; expected {self.describe()}{reason}")
         return value
 
 
@@ -160,11 +165,16 @@ def _is_number(text: str) -> bool:
 
 
 def add_mesh(parser: argparse.ArgumentParser, help_text: str = "mesh of the flexible bodies") -> None:
-    """Add ``--mesh {coarse,production,SIZE_M}`` (``--mesh-size`` is a hidden alias)."""
-    parser.add_argument("--mesh", "--mesh-size", dest="mesh", type=parse_mesh_option, default="production",
+    """Add ``--mesh {coarse,production,SIZE_M}``."""
+    parser.add_argument("--mesh", type=parse_mesh_option, default="production",
                         metavar="{coarse,production,SIZE_M}",
                         help=f"{help_text}: coarse, production or an element size in m "
                              f"({_number_text(MESH_MIN_M)}-{_number_text(MESH_MAX_M)})")
+
+
+def add_hidden_alias(parser: argparse.ArgumentParser, old: str, dest: str, **kwargs) -> None:
+    """Accept the old spelling ``old`` of an option (stored in ``dest``) without listing it in --help."""
+    parser.add_argument(old, dest=dest, default=argparse.SUPPRESS, help=argparse.SUPPRESS, **kwargs)
 
 
 def add_cache_dir(parser: argparse.ArgumentParser) -> None:
