@@ -78,6 +78,8 @@ MODES = ("grid", "random")
 MAX_POINTS = 100_000
 #: largest |exponent| of a logspace range: 10**308 is the largest double
 MAX_LOG_EXPONENT = 300
+#: largest seed: stored as a 64-bit integer in the results
+SEED_MAX = 2**63 - 1
 #: a study name is a folder name: letters, digits, '.', '_', '-' (not starting with '.')
 _NAME_PATTERN = re.compile(r"[A-Za-z0-9_-][A-Za-z0-9._-]{0,99}")
 _STUDY_KEYS = ("name", "task", "mode", "samples", "seed", "settings", "imports")
@@ -349,8 +351,9 @@ def parse_config(data: Mapping[str, Any], source: str = "<config>", default_name
     if mode == "grid" and samples:
         raise InputError("study.samples is only used with mode = 'random'; remove it or set the mode")
     seed = study.get("seed", 0)
-    if not _is_int(seed) or seed < 0:
-        raise InputError(f"study.seed = {seed!r}: expected an integer >= 0")
+    if not _is_int(seed) or not 0 <= seed <= SEED_MAX:
+        raise InputError(f"study.seed = {seed!r}: expected an integer in [0, 2**63 - 1] (stored as a 64-bit "
+                         "integer)")
     settings_raw = study.get("settings", {})
     if not isinstance(settings_raw, Mapping):
         raise InputError("study.settings: expected a table of task parameters")
@@ -387,8 +390,8 @@ def parse_config(data: Mapping[str, Any], source: str = "<config>", default_name
         for v in r.grid_values() if kind in ("values", "range") else list(r.args[:2]):
             where = f"parameters.{name}.{kind}"
             if name == "seed":
-                if not _is_int(v) or v < 0:
-                    raise InputError(f"{where}: seed {v!r}; expected integers >= 0")
+                if not _is_int(v) or not 0 <= v <= SEED_MAX:
+                    raise InputError(f"{where}: seed {v!r}; expected integers in [0, 2**63 - 1]")
             else:
                 _check_range_value(declared[name], r, v, where)
             if kind == "values":
