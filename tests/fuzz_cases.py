@@ -899,6 +899,7 @@ def cases(work: Path) -> list[Case]:
     )
     add("sweep", "sweep", "scheduler not a url", "S.toml", "--out", "new", "--scheduler", "localhost")
     add("sweep", "sweep", "plot-x not swept", "S.toml", "--out", "new", "--plot-x", "size")
+    add("cache", "sweep", "cache dir is a file", "S.toml", "--out", "new", "--cache-dir", "blocker")
     add("sweep", "sweep", "config missing", "missing.toml", "--out", "new")
     add("sweep", "sweep", "config is a directory", "sub", "--out", "new")
     add("sweep", "sweep", "config not utf8", "s_not_utf8.toml", "--out", "new")

@@ -13,6 +13,7 @@ from __future__ import annotations
 
 import argparse
 import logging
+import os
 import sys
 from pathlib import Path
 
@@ -35,6 +36,10 @@ def configure(parser: argparse.ArgumentParser) -> None:
                         help="local worker processes (default: number of CPUs)")
     parser.add_argument("--out", metavar="DIR",
                         help="result directory, created when missing (default sweep-results/<name>)")
+    parser.add_argument("--cache-dir", default=None, metavar="DIR",
+                        help="flexible-body and virtual-recording cache of the local workers (default: "
+                             "$EXUDYN_STUDY_CACHE or ~/.cache/exudyn_study; Dask workers use their own "
+                             "environment)")
     parser.add_argument("--allow-imports", action="store_true",
                         help="import the modules listed in the configuration's [study] imports (they run "
                              "code: only for configurations you trust)")
@@ -68,6 +73,10 @@ def run(args: argparse.Namespace) -> int:
     if out.exists() and not out.is_dir():
         raise InputError(f"--out {str(out)!r} is a file; expected a result directory (created when missing)")
     nearest_existing_dir(out, "--out")
+    if args.cache_dir is not None:
+        from exudyn_study.infra.cache import cache_dir
+
+        cache_dir(args.cache_dir)  # a file in the way or not writable: refused now
     if args.dry_run:
         print(f"{config.name}: task {task.name}, {len(points)} point(s), mode {config.mode}")
         for p in points:
@@ -77,6 +86,9 @@ def run(args: argparse.Namespace) -> int:
     with OutputSet(inputs={"CONFIG": args.config}) as outputs:
         summary_path = outputs.file(out / "summary.txt", "--out")  # checks --out is writable, up front
         plot_path = None if args.no_plot else outputs.file(out / "sweep.png", "--out")
+        saved_cache = os.environ.get("EXUDYN_STUDY_CACHE")
+        if args.cache_dir is not None:  # the spawned local workers inherit the environment
+            os.environ["EXUDYN_STUDY_CACHE"] = str(Path(args.cache_dir).resolve())
         try:
             result = run_sweep(config, out, scheduler=args.scheduler,
                                workers=None if args.scheduler else args.workers, resume=args.resume,
@@ -85,6 +97,11 @@ def run(args: argparse.Namespace) -> int:
             print(f"exudyn-study sweep: interrupted; finished points are kept in {out}; "
                   "rerun with --resume to complete", file=sys.stderr)
             return 130
+        finally:
+            if saved_cache is None:
+                os.environ.pop("EXUDYN_STUDY_CACHE", None)
+            else:
+                os.environ["EXUDYN_STUDY_CACHE"] = saved_cache
         table = summary_table(result.rows, config, task)
         summary_path.write_text(table + "\n", encoding="utf-8")
         if plot_path is not None:
