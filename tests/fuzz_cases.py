@@ -276,7 +276,7 @@ def _tomls(work: Path) -> dict[str, tuple[str, str]]:
     docs = {
         "logspace_overflow": (
             "malformed-config",
-            base + "[parameters]\nsize = { values = [1] }\nseconds = { logspace = [0, 400, 3] }\n",
+            '[study]\ntask = "sleep_cpu"\n[parameters]\nseconds = { logspace = [0, 400, 3] }\n',
         ),
         "linspace_huge": (
             "malformed-config",

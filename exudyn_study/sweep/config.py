@@ -292,8 +292,13 @@ def load_config(path: str | os.PathLike, registry: TaskRegistry | None = None,
     p = Path(path)
     data = load_toml_input(p, "sweep configuration")
     default_name = re.sub(r"[^A-Za-z0-9._-]", "_", p.stem).lstrip(".")[:100] or "sweep"
-    return parse_config(data, source=str(p), default_name=default_name, registry=registry,
-                        allow_imports=allow_imports)
+    try:
+        return parse_config(data, source=str(p), default_name=default_name, registry=registry,
+                            allow_imports=allow_imports)
+    except InputError as exc:  # name the file as well as the key
+        text = str(exc)
+        where = f"sweep configuration {str(p)!r}"
+        raise InputError(text if text.startswith(str(p)) else f"{where}: {text}") from None
 
 
 def parse_config(data: Mapping[str, Any], source: str = "<config>", default_name: str = "sweep",
