@@ -80,6 +80,19 @@ def _alive(pid: int) -> bool:
         return False
 
 
+def _children(pid: int) -> list[int]:
+    """Process ids whose parent is ``pid`` (Linux /proc)."""
+    out = []
+    for stat in Path("/proc").glob("[0-9]*/stat"):
+        try:
+            fields = stat.read_text().split(") ", 1)[1].split()
+        except OSError:
+            continue
+        if int(fields[1]) == pid:
+            out.append(int(stat.parent.name))
+    return out
+
+
 # --------------------------------------------------------------------------- fast checks
 
 
@@ -146,7 +159,7 @@ def test_pool_workers_die_with_the_killed_sweep_and_resume_computes_each_point_o
                             stdout=subprocess.DEVNULL, stderr=subprocess.PIPE)
     _wait_for(lambda: len(list((out / "points").glob("*.json"))) >= 2 if (out / "points").is_dir() else False,
               120, "two points saved", proc)
-    workers = [int(p.name) for p in pid_dir.iterdir()]
+    workers = [int(p.name) for p in pid_dir.iterdir()] + _children(proc.pid)  # + the resource tracker
     os.kill(proc.pid, signal.SIGKILL)  # the main process only: its workers must follow it
     proc.wait()
     _wait_for(lambda: not any(_alive(w) for w in workers), 15, f"workers {workers} ended")
