@@ -46,6 +46,7 @@ __all__ = [
     "read_text_input",
     "load_json_input",
     "load_toml_input",
+    "parse_json_text",
     "nearest_existing_dir",
 ]
 
