@@ -368,12 +368,11 @@ def test_cli_bad_numbers(tmp_path, capsys):
         )
         == 2
     )
-    assert "--above-percent 120.0" in capsys.readouterr().err
-    assert (
-        main(
-            ["calibrate", "--model", "2", "--target", str(target), "--json", str(tmp_path / "no" / "o.json")]
-        )
-        == 2
-    )
-    assert "does not exist" in capsys.readouterr().err
-    assert not out.exists()
+    assert "--above-percent 120: out of range; expected >= 0 and <= 100 %" in capsys.readouterr().err
+    blocker = tmp_path / "a_file"
+    blocker.write_text("x")
+    assert main(["calibrate", "--model", "2", "--target", str(target), "--json", str(blocker / "o.json")]) == 2
+    assert "is a file, not a directory" in capsys.readouterr().err
+    assert main(["calibrate", "--model", "2", "--target", str(target), "--json", str(target)]) == 2
+    assert "is the input --target" in capsys.readouterr().err
+    assert not out.exists() and target.read_text() == ModalModel((Mode(12.0, 0.02),)).to_json()

@@ -28,7 +28,7 @@ def test_reduce_rejects_unknown_component(capsys, tmp_path):
 
 def test_reduce_rejects_non_positive_max_frequency(capsys):
     assert main(["reduce", "--max-frequency", "0"]) == 2
-    assert "max_frequency_hz" in capsys.readouterr().err
+    assert "--max-frequency 0: out of range; expected > 0 and <= 2000 Hz" in capsys.readouterr().err
 
 
 def test_help_lists_the_subcommands(capsys):
@@ -48,3 +48,47 @@ def test_demo_identification_part_runs(tmp_path):
     assert 9 <= len(modes) <= 11
     assert (tmp_path / "test_white_noise.h5").exists()
     assert (tmp_path / "figures" / "stabilisation.png").exists()
+
+
+def test_verbosity_options_after_the_subcommand():
+    from exudyn_study.cli import build_parser
+
+    parser = build_parser()
+    args = parser.parse_args(["reduce", "-v"])
+    assert args.verbose and not args.quiet
+    args = parser.parse_args(["reduce", "--quiet"])
+    assert args.quiet and not args.verbose
+    args = parser.parse_args(["-v", "reduce"])
+    assert args.verbose
+
+
+def test_warnings_are_one_clean_line_each_repeats_counted_once(monkeypatch, capsys):
+    """warnings.warn and logging warnings go through one path: 'warning: ...', a repeat printed once."""
+    import logging
+    import warnings
+
+    import exudyn_study.cli.reduce as reduce_cli
+
+    def run(args):
+        for _ in range(3):
+            warnings.warn("the same thing\n  twice", UserWarning, stacklevel=1)
+        logging.getLogger("exudyn_study.test").warning("from logging")
+        warnings.warn("another thing", RuntimeWarning, stacklevel=1)
+        return 0
+
+    monkeypatch.setattr(reduce_cli, "run", run)
+    assert main(["reduce"]) == 0
+    err = capsys.readouterr().err.splitlines()
+    assert err == ["warning: the same thing twice", "warning: from logging", "warning: another thing",
+                   "warning: 2 repeat(s) of 1 warning(s) above not shown again"]
+
+
+def test_usage_errors_are_one_line(capsys):
+    assert main(["reduce", "--no-such-option"]) == 2
+    err = capsys.readouterr().err
+    assert err == "exudyn-study: error: unrecognized arguments: --no-such-option (see exudyn-study --help)\n"
+    assert main(["simulate", "--model", "1", "--out", "x.h5", "--duration", "1e9"]) == 2
+    err = capsys.readouterr().err
+    assert err == ("exudyn-study simulate: error: --duration 1e9: out of range; expected > 0 and <= 3600 s "
+                   "(43 channels at 1000 Hz hold 1.2 GB per hour in memory; a rig test record is 60-120 s) "
+                   "(see exudyn-study simulate --help)\n")

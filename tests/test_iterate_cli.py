@@ -65,7 +65,10 @@ def mini_build_model(bodies, monkeypatch):
         return build_model_from_bodies(bodies, variant, damping=damping, sensors=FRAME_SENSORS,
                                        exudyn_mesh="used")
 
+    import exudyn_study.model.variants as variants
+
     monkeypatch.setattr(model_pkg, "build_model", build)
+    monkeypatch.setattr(variants, "build_model", build)  # the CLI imports it from there
     return calls
 
 
@@ -108,12 +111,12 @@ def _run_error(argv, capsys):
 @pytest.mark.parametrize(
     ("extra", "match"),
     [
-        (["--model", "4"], "--model '4' is unknown; expected 1, 2 or 3"),
-        (["--model", "1", "--damping", "rayleigh"], "--damping 'rayleigh' is unknown"),
+        (["--model", "4"], "--model: invalid choice: 4 (choose from 1, 2, 3)"),
+        (["--model", "1", "--damping", "rayleigh"], "--damping: invalid choice: 'rayleigh'"),
         (["--model", "1", "--control", "ARFVZ", "ARFXZ"],
          "control channel(s) ARFXZ missing from the recording; it has ARFMZ, ARFVZ"),
-        (["--model", "1", "--tolerance", "0"], "--tolerance 0.0; expected a relative error > 0"),
-        (["--model", "1", "--reg", "-1"], "--reg -1.0; expected a relative regularisation > 0"),
+        (["--model", "1", "--tolerance", "0"], "--tolerance 0: out of range; expected > 0 and <= 1"),
+        (["--model", "1", "--reg", "-1"], "--reg -1: out of range; expected > 0 and <= 10"),
         (["--model", "1", "--calibration", "c.json"], "--calibration is used with --damping suggested only"),
     ],
 )
@@ -142,7 +145,9 @@ def test_nan_missing_recording_and_output_directory(measured_file, mini_build_mo
     rc, err = _run_error(["--model", "1", "--measured", str(tmp_path / "absent.h5"), "--out", str(out)],
                          capsys)
     assert rc == 2 and "does not exist" in err
-    rc, err = _run_error(["--model", "1", "--measured", str(measured_file), "--out", "/nonexistent/x.h5"],
+    blocker = tmp_path / "a_file"
+    blocker.write_text("x")
+    rc, err = _run_error(["--model", "1", "--measured", str(measured_file), "--out", str(blocker / "x.h5")],
                          capsys)
-    assert rc == 2 and "--out '/nonexistent/x.h5': directory '/nonexistent' does not exist" in err
+    assert rc == 2 and f"{str(blocker)!r} is a file, not a directory" in err
     assert not out.exists() and mini_build_model == []

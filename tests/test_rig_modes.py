@@ -112,5 +112,5 @@ def test_cli_modes_bad_model(tmp_path):
     proc = subprocess.run([sys.executable, "-m", "exudyn_study.cli", "modes", "--model", "7", "--json",
                            str(tmp_path / "x.json")], capture_output=True, text=True)
     assert proc.returncode == 2
-    assert "model 7 is unknown" in proc.stderr
+    assert "--model: invalid choice: 7 (choose from 1, 2, 3)" in proc.stderr and proc.stderr.count("\n") == 1
     assert not (tmp_path / "x.json").exists()

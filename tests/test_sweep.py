@@ -97,7 +97,8 @@ def test_cli_bad_input_exits_2_with_one_line(tmp_path, capsys):
     cfg.write_text('[study]\ntask = "damping_sensitivity"\n[parameters]\nzeta = { values = [0.1] }\n')
     assert main(["sweep", str(cfg), "--out", str(tmp_path / "o")]) == 2
     err = capsys.readouterr().err.strip()
-    assert err.startswith("exudyn-study sweep: error: parameters.zeta: unknown parameter")
+    assert err.startswith(f"exudyn-study sweep: error: sweep configuration {str(cfg)!r}: parameters.zeta: "
+                          "unknown parameter")
     assert len(err.splitlines()) == 1
     assert not (tmp_path / "o").exists()
 

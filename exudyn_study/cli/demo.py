@@ -20,13 +20,19 @@ import argparse
 import json
 from pathlib import Path
 
+from exudyn_study.cli.options import add_cache_dir, add_mesh, add_seed
+
+__all__ = ["configure", "run"]
+
 
 def configure(parser: argparse.ArgumentParser) -> None:
     """Add the arguments of ``demo``."""
-    parser.add_argument("--out", default="demo_out", help="output directory (default demo_out)")
-    parser.add_argument("--mesh", default="production", help="mesh of the chassis body (default production)")
+    parser.add_argument("--out", default="demo_out", metavar="DIR",
+                        help="output directory (created when missing)")
+    add_mesh(parser, "mesh of the chassis body")
+    add_cache_dir(parser)
     parser.add_argument("--skip-fe", action="store_true", help="skip the FE/reduction step")
-    parser.add_argument("--seed", type=int, default=1, help="seed of the synthetic test")
+    add_seed(parser, 1, "seed of the synthetic test")
     parser.add_argument(
         "--virtual-rig",
         action="store_true",
@@ -37,20 +43,32 @@ def configure(parser: argparse.ArgumentParser) -> None:
 
 
 def run(args: argparse.Namespace) -> int:
-    """Run the demo."""
+    """Run the demo; every output is staged and moved into ``--out`` at the end."""
+    from exudyn_study.infra.cache import cache_dir
+    from exudyn_study.infra.files import OutputSet
+
+    with OutputSet() as outputs:
+        out = outputs.directory(args.out, "--out")
+        if not args.skip_fe or args.virtual_rig:
+            cache_dir(args.cache_dir)
+        _demo(args, out, Path(args.out))
+    print(f"      outputs in {args.out}")
+    return 0
+
+
+def _demo(args: argparse.Namespace, out: Path, shown: Path) -> None:
+    """Run the demo's steps, writing into ``out`` (staging) and naming ``shown`` (the target) in messages."""
     from exudyn_study.identify.model import write_modes_json
     from exudyn_study.identify.pipeline import identify_recording
     from exudyn_study.identify.plots import plot_all
     from exudyn_study.identify.synthetic import simulate, table1_system, to_recording
     from exudyn_study.recording.io import read_recording, write_recording
 
-    out = Path(args.out)
-    out.mkdir(parents=True, exist_ok=True)
     summary = {}
     if not args.skip_fe:
         from exudyn_study.bodies.spec import BodySpec, flexible_body
 
-        data = flexible_body(BodySpec(joint_model="simple", mesh_size=args.mesh))
+        data = flexible_body(BodySpec(joint_model="simple", mesh_size=args.mesh), cache_dir=args.cache_dir)
         body = data.body
         print(
             f"[1/3] chassis flexible body (Model 1): {3 * body.n_nodes} DOF, {body.total_mass_kg:.1f} kg, "
@@ -75,7 +93,7 @@ def run(args: argparse.Namespace) -> int:
     rec_path = out / "test_white_noise.h5"
     write_recording(recording, rec_path)
     print(
-        f"[2/3] synthetic white-noise test written to {rec_path} "
+        f"[2/3] synthetic white-noise test written to {shown / rec_path.name} "
         f"({len(recording.channels)} channels, {recording.duration_s:.0f} s)"
     )
     result = identify_recording(
@@ -83,7 +101,7 @@ def run(args: argparse.Namespace) -> int:
     )
     write_modes_json(result.model, out / "modes.json")
     figures = plot_all(result, out / "figures")
-    print(f"[3/3] identified {len(result.model.modes)} modes (Hv, 0.2 Hz) -> {out / 'modes.json'}")
+    print(f"[3/3] identified {len(result.model.modes)} modes (Hv, 0.2 Hz) -> {shown / 'modes.json'}")
     print("      mode  f [Hz]   zeta [%]   true f [Hz]  true zeta [%]")
     for i, mode in enumerate(result.model.modes):
         j = min(
@@ -93,17 +111,14 @@ def run(args: argparse.Namespace) -> int:
             f"      {i + 1:>4}  {mode.frequency_hz:7.3f}  {100 * mode.damping_ratio:8.3f}   "
             f"{system.frequency_hz[j]:10.3f}  {100 * system.damping_ratio[j]:12.3f}"
         )
-    print(f"      figures: {', '.join(str(p) for p in figures)}")
+    print(f"      figures: {', '.join(str(shown / p.relative_to(out)) for p in figures)}")
     summary["identified_modes"] = len(result.model.modes)
     if args.virtual_rig:
-        summary["virtual_rig"] = _virtual_rig(out / "virtual_rig")
-    from exudyn_study.infra.atomic import write_text_atomic
-
-    write_text_atomic(out / "demo_summary.json", json.dumps(summary, indent=1), "demo summary")
-    return 0
+        summary["virtual_rig"] = _virtual_rig(out / "virtual_rig", shown / "virtual_rig", args.cache_dir)
+    (out / "demo_summary.json").write_text(json.dumps(summary, indent=1), encoding="utf-8")
 
 
-def _virtual_rig(out: Path) -> dict:
+def _virtual_rig(out: Path, shown: Path, cache_dir=None) -> dict:
     """Play the thesis scenario on the virtual rig, identify its white-noise recording, diagnose Model 3."""
     import time
 
@@ -118,7 +133,7 @@ def _virtual_rig(out: Path) -> dict:
 
     out.mkdir(parents=True, exist_ok=True)
     t0 = time.perf_counter()
-    paths = run_virtual_test("thesis", ["white-noise", "test", "test-50"], out)
+    paths = run_virtual_test("thesis", ["white-noise", "test", "test-50"], out, cache_dir=cache_dir)
     print(
         f"[4/5] virtual rig, scenario 'thesis': {', '.join(p.name for p in paths)} in "
         f"{time.perf_counter() - t0:.0f} s (the truth is in thesis_truth.json; nothing else reads it)"
@@ -160,12 +175,13 @@ def _virtual_rig(out: Path) -> dict:
             + ", ".join(f"{modes[i]['frequency_hz']:.2f} Hz" for i in extra)
         )
     figures: dict = {}
-    diagnosis = diagnose_rig(3, [paths[0], paths[2]], [paths[1]], damping="table6", figures=figures)
+    diagnosis = diagnose_rig(3, [paths[0], paths[2]], [paths[1]], damping="table6", figures=figures,
+                             cache_dir=cache_dir)
     diagnosis.write_json(out / "diagnosis.json")
     write_report(diagnosis, out / "diagnosis_report", figures)
     print(
         f"[5/5] diagnosis of Model 3 (Table 6 damping) against the recordings: {diagnosis.summary} -> "
-        f"{out / 'diagnosis_report' / 'index.html'}"
+        f"{shown / 'diagnosis_report' / 'index.html'}"
     )
     return {
         "recordings": [p.name for p in paths],

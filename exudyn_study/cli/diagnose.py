@@ -10,8 +10,9 @@ Usage::
 (:func:`~exudyn_study.diagnose.generic.diagnose_generic`): the nominal model is a linear
 modal model identified from the lowest-level recording REFERENCE. ``--model 1|2|3`` is the
 chassis on the rig (:func:`exudyn_study.diagnose.rig.diagnose_rig`). The JSON (schema in
-:mod:`exudyn_study.diagnose.schema`) and the report are written only when the diagnosis
-has finished, each atomically. Heavy imports happen inside :func:`run`.
+:mod:`exudyn_study.diagnose.schema`) and the report are staged and moved into place
+together when the diagnosis has finished; on an error neither is written. Heavy imports
+happen inside :func:`run`.
 """
 
 from __future__ import annotations
@@ -21,9 +22,13 @@ import inspect
 import sys
 from pathlib import Path
 
+from exudyn_study.cli.options import Bounded, add_cache_dir
 from exudyn_study.errors import InputError
 
 __all__ = ["configure", "run"]
+
+RESOLUTION = Bounded(float, 0.005, 10.0, "Hz", "finer than 0.005 Hz needs records of hours per average; "
+                     "coarser than 10 Hz resolves no structural mode")
 
 
 def configure(parser: argparse.ArgumentParser) -> None:
@@ -50,7 +55,8 @@ def configure(parser: argparse.ArgumentParser) -> None:
         help="held-out recordings (other level or signal), never used for fitting",
     )
     parser.add_argument("--json", required=True, metavar="OUT", help="diagnosis JSON to write")
-    parser.add_argument("--report", metavar="DIR", help="also write an HTML report with figures into DIR")
+    parser.add_argument("--report", metavar="DIR",
+                        help="also write an HTML report with figures into DIR (created when missing)")
     parser.add_argument(
         "--interface",
         action="append",
@@ -67,11 +73,12 @@ def configure(parser: argparse.ArgumentParser) -> None:
     )
     parser.add_argument(
         "--resolution",
-        type=float,
+        type=RESOLUTION,
         default=None,
         metavar="HZ",
         help="generic path: FRF resolution in Hz (default 0.25)",
     )
+    add_cache_dir(parser)
 
 
 def _parse_model(text: str):
@@ -101,16 +108,6 @@ def _parse_interfaces(items):
     return out
 
 
-def _check_outputs(args) -> None:
-    out = Path(args.json)
-    if not out.parent.is_dir():
-        raise InputError(f"--json {args.json!r}: directory {str(out.parent)!r} does not exist")
-    if args.report is not None and not Path(args.report).parent.is_dir():
-        raise InputError(
-            f"--report {args.report!r}: parent directory {str(Path(args.report).parent)!r} does not exist"
-        )
-
-
 def _read(paths, option: str):
     from exudyn_study.recording.io import read_recording
 
@@ -125,59 +122,25 @@ def _read(paths, option: str):
 
 def run(args: argparse.Namespace) -> int:
     """Run the diagnosis and write the JSON (and the report); return the exit code."""
+    from exudyn_study.infra.files import OutputSet
+
     variant, ref_path = _parse_model(args.model)
     if not args.holdout:
         raise InputError(
             "--holdout: no held-out recording given; the improvement must be shown on recordings "
             "not used for fitting (another level or signal): add --holdout REC"
         )
-    _check_outputs(args)
     interfaces = _parse_interfaces(args.interface)
-    train = _read(args.train, "--train")
-    holdout = _read(args.holdout, "--holdout")
-    figures: dict = {}
-    if variant is not None:
-        try:
-            from exudyn_study.diagnose import rig
-        except ImportError:
-            print(
-                "exudyn-study diagnose: error: the chassis path (exudyn_study.diagnose.rig) is not "
-                "available in this version; use --model modal:REFERENCE",
-                file=sys.stderr,
-            )
-            return 2
-        kwargs = {"progress": lambda msg: print(msg, file=sys.stderr)}
-        if "figures" in inspect.signature(rig.diagnose_rig).parameters:
-            kwargs["figures"] = figures
-        diagnosis = rig.diagnose_rig(variant, train, holdout, **kwargs)
-    else:
-        from exudyn_study.diagnose.generic import GenericSettings, diagnose_generic
+    inputs = {"--train": args.train, "--holdout": args.holdout, "--model modal:": ref_path}
+    with OutputSet(inputs=inputs) as outputs:
+        json_path = outputs.file(args.json, "--json")
+        report = outputs.directory(args.report, "--report")
+        diagnosis, figures = _diagnose(args, variant, ref_path, interfaces)
+        if report is not None:
+            from exudyn_study.diagnose.report import write_report
 
-        (reference,) = _read([ref_path], "--model modal:")
-        settings = (
-            GenericSettings() if args.resolution is None else GenericSettings(resolution_hz=args.resolution)
-        )
-        labels = {
-            "reference": ref_path.name,
-            "train": [Path(p).name for p in args.train],
-            "holdout": [Path(p).name for p in args.holdout],
-        }
-        diagnosis = diagnose_generic(
-            reference,
-            train,
-            holdout,
-            interfaces,
-            settings=settings,
-            labels=labels,
-            progress=lambda msg: print(msg, file=sys.stderr) if getattr(args, "verbose", False) else None,
-            figures=figures,
-            drive_point=args.drive_point,
-        )
-    if args.report is not None:
-        from exudyn_study.diagnose.report import write_report
-
-        write_report(diagnosis, args.report, figures)
-    diagnosis.write_json(args.json)
+            write_report(diagnosis, report, figures)
+        diagnosis.write_json(json_path)
     print(f"diagnosis: {diagnosis.summary} -> {args.json}")
     for f in diagnosis.findings:
         print(
@@ -186,3 +149,46 @@ def run(args: argparse.Namespace) -> int:
             f"{f.fit['holdout_before']:.3g} -> {f.fit['holdout_after']:.3g}"
         )
     return 0
+
+
+def _diagnose(args: argparse.Namespace, variant, ref_path, interfaces):
+    quiet = getattr(args, "quiet", False)
+    train = _read(args.train, "--train")
+    holdout = _read(args.holdout, "--holdout")
+    figures: dict = {}
+    if variant is not None:
+        try:
+            from exudyn_study.diagnose import rig
+        except ImportError:
+            raise InputError("--model: the chassis path (exudyn_study.diagnose.rig) is not available in "
+                             "this version; use --model modal:REFERENCE") from None
+        from exudyn_study.infra.cache import cache_dir
+
+        cache_dir(args.cache_dir)
+        kwargs = {"progress": None if quiet else (lambda msg: print(msg, file=sys.stderr)),
+                  "cache_dir": args.cache_dir}
+        if "figures" in inspect.signature(rig.diagnose_rig).parameters:
+            kwargs["figures"] = figures
+        return rig.diagnose_rig(variant, train, holdout, **kwargs), figures
+    from exudyn_study.diagnose.generic import GenericSettings, diagnose_generic
+
+    (reference,) = _read([ref_path], "--model modal:")
+    settings = (GenericSettings() if args.resolution is None
+                else GenericSettings(resolution_hz=args.resolution))
+    labels = {
+        "reference": ref_path.name,
+        "train": [Path(p).name for p in args.train],
+        "holdout": [Path(p).name for p in args.holdout],
+    }
+    diagnosis = diagnose_generic(
+        reference,
+        train,
+        holdout,
+        interfaces,
+        settings=settings,
+        labels=labels,
+        progress=lambda msg: print(msg, file=sys.stderr) if getattr(args, "verbose", False) else None,
+        figures=figures,
+        drive_point=args.drive_point,
+    )
+    return diagnosis, figures

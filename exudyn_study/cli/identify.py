@@ -6,22 +6,29 @@ Example::
         --estimator Hv --json modes.json --plots figs/
 
 Bad input (unknown reference, mixed rates, NaN samples, a band beyond Nyquist, a
-record too short for the resolution, a UFF without type-58 sets) is reported on
-one line with exit code 2, and nothing is written.
+record too short for the resolution, a UFF without type-58 sets, an output that is the
+input or cannot be written) is reported on one line with exit code 2, and nothing is
+written: the JSON and the figures are staged and moved into place together at the end.
 """
 
 from __future__ import annotations
 
 import argparse
 import logging
-import warnings
 from pathlib import Path
 
+from exudyn_study.cli.options import Bounded
 from exudyn_study.errors import InputError
 
 __all__ = ["configure", "run"]
 
 logger = logging.getLogger(__name__)
+
+FREQUENCY = Bounded(float, 0.0, 1e5, "Hz", "a frequency of the recording's band", low_open=True)
+RESOLUTION = Bounded(float, 0.005, 10.0, "Hz", "finer than 0.005 Hz needs records of hours per average; "
+                     "coarser than 10 Hz resolves no structural mode")
+MAX_ORDER = Bounded(int, 4, 200, "", "PolyMAX needs order 4 for one mode pair; each order adds a solve "
+                    "and 200 is far beyond the modes of any band")
 
 
 def configure(parser: argparse.ArgumentParser) -> None:
@@ -31,40 +38,37 @@ def configure(parser: argparse.ArgumentParser) -> None:
                         help="reference channel(s), e.g. ARFVZ (several: one estimate each)")
     parser.add_argument("--responses", nargs="+", metavar="NAME",
                         help="response channels (default: all response channels)")
-    parser.add_argument("--band", nargs=2, type=float, metavar=("FMIN", "FMAX"),
+    parser.add_argument("--band", nargs=2, type=FREQUENCY, metavar=("FMIN", "FMAX"),
                         help="frequency band in Hz (default: where coherence >= 0.5)")
-    parser.add_argument("--resolution", type=float, default=0.2, metavar="HZ",
-                        help="FRF resolution in Hz (default 0.2)")
+    parser.add_argument("--resolution", type=RESOLUTION, default=0.2, metavar="HZ",
+                        help="FRF resolution in Hz")
     parser.add_argument("--estimator", choices=("H1", "H2", "Hv"), default="Hv",
-                        help="FRF estimator (default Hv)")
-    parser.add_argument("--max-order", type=int, default=60, metavar="N",
-                        help="highest model order of the stabilisation diagram (default 60)")
-    parser.add_argument("--pin", type=float, nargs="+", default=(), metavar="HZ",
+                        help="FRF estimator: H1, H2 or Hv")
+    parser.add_argument("--max-order", type=MAX_ORDER, default=60, metavar="N",
+                        help="highest model order of the stabilisation diagram")
+    parser.add_argument("--pin", type=FREQUENCY, nargs="+", default=(), metavar="HZ",
                         help="force modes near these frequencies into the selection")
-    parser.add_argument("--drop", type=float, nargs="+", default=(), metavar="HZ",
+    parser.add_argument("--drop", type=FREQUENCY, nargs="+", default=(), metavar="HZ",
                         help="drop selected modes near these frequencies")
     parser.add_argument("--no-leakage-correction", action="store_true",
                         help="fit plain pole terms (no model of the Welch window smoothing)")
     parser.add_argument("--json", required=True, metavar="OUT", help="modes JSON to write")
-    parser.add_argument("--plots", metavar="DIR", help="write figures (PNG) into DIR")
+    parser.add_argument("--plots", metavar="DIR", help="write figures (PNG) into DIR (created when missing)")
 
 
 def run(args: argparse.Namespace) -> int:
     """Run the identification; returns 0 on success (InputError propagates)."""
     from exudyn_study.identify.model import write_modes_json
     from exudyn_study.identify.pipeline import identify_recording
+    from exudyn_study.infra.files import OutputSet
     from exudyn_study.recording.io import read_recording
 
-    out = Path(args.json)
-    if not out.parent.is_dir():
-        raise InputError(f"--json {str(out)!r}: directory {str(out.parent)!r} does not exist")
-    if args.plots is not None and Path(args.plots).exists() and not Path(args.plots).is_dir():
-        raise InputError(f"--plots {args.plots!r}: exists and is not a directory")
-    if args.max_order < 4:
-        raise InputError(f"--max-order {args.max_order}: expected at least 4")
-    rec = read_recording(args.file)
-    with warnings.catch_warnings(record=True) as caught:
-        warnings.simplefilter("always", UserWarning)
+    if args.band is not None and not args.band[0] < args.band[1]:
+        raise InputError(f"--band {args.band[0]:g} {args.band[1]:g}: expected FMIN < FMAX in Hz")
+    with OutputSet(inputs={"FILE": args.file}) as outputs:
+        out = outputs.file(args.json, "--json")
+        plots = outputs.directory(args.plots, "--plots")
+        rec = read_recording(args.file)
         result = identify_recording(
             rec, args.reference, responses=args.responses, band_hz=args.band,
             resolution_hz=args.resolution, estimator=args.estimator,
@@ -72,9 +76,16 @@ def run(args: argparse.Namespace) -> int:
             leakage_correction=not args.no_leakage_correction,
             metadata={"source_file": str(args.file)},
         )
-    for w in caught:
-        print(f"warning: {w.message}")
-    write_modes_json(result.model, out)
+        write_modes_json(result.model, out)
+        figures = []
+        if plots is not None:
+            from exudyn_study.identify.plots import plot_all
+
+            chans = {c.name: c for c in rec.channels}
+            pos = {n: c.position_m for n, c in chans.items() if c.position_m is not None}
+            dirs = {n: c.direction for n, c in chans.items()}
+            figures = [Path(args.plots) / p.relative_to(plots)
+                       for p in plot_all(result, plots, positions_m=pos, directions=dirs)]
     model = result.model
     lo, hi = result.band_hz
     print(f"{len(model)} modes in {lo:.2f}-{hi:.2f} Hz ({result.frf.estimator}, "
@@ -89,15 +100,9 @@ def run(args: argparse.Namespace) -> int:
         worst = result.fit.fit_error.argmax()
         print(f"fit error per channel: median {100 * float(_median(result.fit.fit_error)):.1f} %,"
               f" worst {100 * result.fit.fit_error[worst]:.1f} % ({result.frf.outputs[worst]})")
-    print(f"wrote {out}")
-    if args.plots is not None:
-        from exudyn_study.identify.plots import plot_all
-
-        chans = {c.name: c for c in rec.channels}
-        pos = {n: c.position_m for n, c in chans.items() if c.position_m is not None}
-        dirs = {n: c.direction for n, c in chans.items()}
-        for p in plot_all(result, args.plots, positions_m=pos, directions=dirs):
-            print(f"wrote {p}")
+    print(f"wrote {args.json}")
+    for p in figures:
+        print(f"wrote {p}")
     return 0
 
 

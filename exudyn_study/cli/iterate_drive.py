@@ -10,7 +10,8 @@ The drive of the model is iterated (thesis Section 7.1, time waveform replicatio
 ``D_0 = H^+ A_m``, ``D_{k+1} = D_k + H^+ (A_m - A_k)``, H updated from the runs) until the
 relative rms error at every control channel is below ``--tolerance`` or after
 ``--iterations`` updates; the model is simulated with the best drive (linearised model,
-``method='linear'``) and that recording is written (atomically). H is the model's own FRF
+``method='linear'``) and that recording is written; the recording and the JSON are staged
+and moved into place together at the end. H is the model's own FRF
 (``--frf model``, exact) or identified by a white-noise run (``--frf identify``).
 
 The JSON holds ``rms_error`` (one entry per run: control channel -> relative rms error),
@@ -32,83 +33,58 @@ from __future__ import annotations
 
 import argparse
 import json
-import math
-import os
-import tempfile
 import time
 from pathlib import Path
 
+from exudyn_study.cli.options import Bounded, add_cache_dir, add_damping, add_hidden_alias, add_mesh
 from exudyn_study.errors import InputError
 
 __all__ = ["configure", "run"]
 
 
+DAMPINGS = ("adams-default", "step", "constant-1", "constant-2", "table6", "suggested")
+ITERATIONS = Bounded(int, 0, 100, "", "each update is one simulation; the iteration converges in a few "
+                     "updates or not at all")
+TOLERANCE = Bounded(float, 0.0, 1.0, "", "a relative rms error (0.05 = 5 %)", low_open=True)
+REGULARIZATION = Bounded(float, 0.0, 10.0, "", "a relative regularisation of H^-1 (0.05 = 5 % of its "
+                         "largest singular value)", low_open=True)
+
+
 def configure(parser: argparse.ArgumentParser) -> None:
     """Add the ``iterate-drive`` arguments to ``parser``."""
-    parser.add_argument("--model", required=True, help="thesis model variant: 1, 2 or 3")
-    parser.add_argument("--damping", default="adams-default", metavar="NAME",
-                        help="adams-default (default), step, constant-1, constant-2, table6 or suggested")
+    parser.add_argument("--model", type=int, choices=(1, 2, 3), required=True, help="rig model variant")
+    add_damping(parser, DAMPINGS, help_text="damping function (suggested: Table 6 for model 3, a "
+                "calibration for models 1/2)")
     parser.add_argument("--calibration", metavar="FILE", default=None,
                         help="calibration JSON (exudyn-study calibrate) for --damping suggested")
     parser.add_argument("--measured", required=True, metavar="REC", help="measured recording (.h5 or .uff)")
     parser.add_argument("--control", nargs="+", default=["ARFVZ", "ARFHZ"], metavar="NAME",
-                        help="control channels (default ARFVZ ARFHZ)")
-    parser.add_argument("--iterations", type=int, default=10, help="maximum number of updates (default 10)")
-    parser.add_argument("--tolerance", type=float, default=0.05,
-                        help="relative rms error to stop at (default 0.05 = 5 %%)")
-    parser.add_argument("--reg", type=float, default=0.05,
-                        help="relative regularisation of H^-1 (default 0.05)")
+                        help="control channels")
+    parser.add_argument("--iterations", type=ITERATIONS, default=10, metavar="N",
+                        help="maximum number of updates")
+    parser.add_argument("--tolerance", type=TOLERANCE, default=0.05,
+                        help="relative rms error to stop at (0.05 = 5 %%)")
+    parser.add_argument("--regularization", type=REGULARIZATION, default=0.05, metavar="ALPHA",
+                        help="relative regularisation of H^-1")
+    add_hidden_alias(parser, "--reg", "regularization", type=REGULARIZATION)
     parser.add_argument("--frf", choices=("model", "identify"), default="model",
-                        help="H: the model's exact FRF (default) or a white-noise identification run")
-    parser.add_argument("--mesh-size", default="production",
-                        help="'production' (default), 'coarse' or a size in m")
-    parser.add_argument("--cache-dir", default=None, help="flexible-body cache directory")
+                        help="H: the model's exact FRF or a white-noise identification run")
+    add_mesh(parser)
+    add_cache_dir(parser)
     parser.add_argument("--out", required=True, metavar="REC_OUT",
-                        help="simulated recording with the final drive")
+                        help="simulated recording with the final drive (.h5 or .uff)")
     parser.add_argument("--json", default=None, metavar="OUT", help="iteration report (JSON)")
 
 
 def _check(args) -> int:
-    try:
-        variant = int(args.model)
-    except ValueError:
-        variant = None
-    if variant not in (1, 2, 3):
-        raise InputError(f"--model {args.model!r} is unknown; expected 1, 2 or 3")
-    if args.iterations < 0:
-        raise InputError(f"--iterations {args.iterations}; expected an integer >= 0")
-    if not (math.isfinite(args.tolerance) and args.tolerance > 0):
-        raise InputError(f"--tolerance {args.tolerance!r}; expected a relative error > 0 (e.g. 0.05)")
-    if not (math.isfinite(args.reg) and args.reg > 0):
-        raise InputError(f"--reg {args.reg!r}; expected a relative regularisation > 0 (e.g. 0.05)")
     if len(set(args.control)) != len(args.control):
         raise InputError(f"--control {' '.join(args.control)}: a channel is named twice")
-    for flag, path in (("--out", args.out), ("--json", args.json)):
-        if path is None:
-            continue
-        parent = Path(path).parent
-        if str(parent) and not parent.is_dir():
-            raise InputError(f"{flag} {path!r}: directory {str(parent)!r} does not exist")
-    from exudyn_study.sweep.grid_damping import DAMPING_NAMES
-
-    if args.damping not in DAMPING_NAMES:
-        raise InputError(f"--damping {args.damping!r} is unknown; expected one of {', '.join(DAMPING_NAMES)}")
+    if Path(args.out).suffix.lower() not in (".h5", ".hdf5", ".uff", ".unv"):
+        raise InputError(f"--out {args.out!r}: suffix {Path(args.out).suffix!r}; expected .h5/.hdf5 or "
+                         ".uff/.unv")
     if args.calibration is not None and args.damping != "suggested":
         raise InputError("--calibration is used with --damping suggested only")
-    return variant
-
-
-def _write_json_atomic(data: dict, path: Path) -> None:
-    directory = path.parent if str(path.parent) else Path(".")
-    fd, tmp = tempfile.mkstemp(dir=directory, prefix=f".{path.name}.", suffix=".tmp")
-    try:
-        with os.fdopen(fd, "w", encoding="utf-8") as fh:
-            json.dump(data, fh, indent=2, allow_nan=False)
-            fh.write("\n")
-        os.replace(tmp, path)
-    finally:
-        if os.path.exists(tmp):
-            os.unlink(tmp)
+    return args.model
 
 
 def run(args: argparse.Namespace) -> int:
@@ -120,7 +96,19 @@ def run(args: argparse.Namespace) -> int:
 
 
 def _run(args: argparse.Namespace) -> int:
+    from exudyn_study.infra.files import OutputSet
+
     variant = _check(args)
+    with OutputSet(inputs={"--measured": args.measured, "--calibration": args.calibration}) as outputs:
+        out = outputs.file(args.out, "--out")
+        json_path = outputs.file(args.json, "--json")
+        from exudyn_study.infra.cache import cache_dir
+
+        cache_dir(args.cache_dir)
+        return _iterate(args, variant, out, json_path)
+
+
+def _iterate(args: argparse.Namespace, variant: int, out: Path, json_path: Path | None) -> int:
     from exudyn_study.recording.io import read_recording
 
     measured = read_recording(args.measured)  # one-line InputError: missing file, NaN samples, format
@@ -132,7 +120,6 @@ def _run(args: argparse.Namespace) -> int:
             f"it has {', '.join(measured.names[:10])}{', ...' if len(measured) > 10 else ''}")
 
     t0 = time.perf_counter()
-    from exudyn_study.bodies.spec import parse_mesh
     from exudyn_study.model.variants import build_model
     from exudyn_study.signals.drive_iteration import target_from_recording
     from exudyn_study.signals.drives import resample
@@ -140,7 +127,7 @@ def _run(args: argparse.Namespace) -> int:
     from exudyn_study.sweep.grid_damping import resolve_damping
     from exudyn_study.sweep.plant import ModelPlant, iterate_model_drive, rms_errors
 
-    mesh = parse_mesh(args.mesh_size)
+    mesh = args.mesh
 
     def build(damping, exudyn_mesh="used"):
         return build_model(variant, damping=damping, mesh_size=mesh, cache_dir=args.cache_dir,
@@ -152,7 +139,7 @@ def _run(args: argparse.Namespace) -> int:
     plant = ModelPlant(build(spec), label=args.damping)
     plant.indices(args.control)
     res = iterate_model_drive(plant, measured, args.control, frf=args.frf, max_iter=args.iterations,
-                              tol=args.tolerance, reg=args.reg)
+                              tol=args.tolerance, reg=args.regularization)
     rec = plant.recording(res.drive, {"drive": "iterated", "measured": Path(args.measured).name,
                                       "iteration_error": float(res.best_error)})
     target, _ = target_from_recording(measured, args.control, rate_hz=OUTPUT_RATE_HZ)
@@ -167,7 +154,7 @@ def _run(args: argparse.Namespace) -> int:
 
     from exudyn_study.recording.io import write_recording
 
-    write_recording(rec, args.out)
+    write_recording(rec, out)
     report = {
         **res.as_dict(),
         "model": variant,
@@ -175,14 +162,14 @@ def _run(args: argparse.Namespace) -> int:
         "measured": str(args.measured),
         "out": str(args.out),
         "frf": args.frf,
-        "reg": args.reg,
+        "reg": args.regularization,
         "final_rms_error": dict(zip(args.control, map(float, final), strict=True)),
         "measured_drive_rms_error": (None if baseline is None
                                      else dict(zip(args.control, map(float, baseline), strict=True))),
         "wall_time_s": time.perf_counter() - t0,
     }
-    if args.json:
-        _write_json_atomic(report, Path(args.json))
+    if json_path is not None:
+        json_path.write_text(json.dumps(report, indent=2, allow_nan=False) + "\n", encoding="utf-8")
     width = max(len(c) for c in args.control)
     print("run  " + "  ".join(f"{c:>{max(width, 8)}}" for c in args.control))
     for k, row in enumerate(res.errors):

@@ -12,56 +12,64 @@ import argparse
 import sys
 
 from exudyn_study.bodies.damping import parse_damping
-from exudyn_study.bodies.spec import parse_mesh
+from exudyn_study.cli.options import Bounded, add_cache_dir, add_damping, add_mesh
 from exudyn_study.linear.modes import modes_table
 
 __all__ = ["configure", "run", "modes_table"]
 
 
+DAMPINGS = ("adams-default", "step", "constant-1", "constant-2", "table6")
+MAX_FREQUENCY = Bounded(float, 0.0, 1000.0, "Hz", "the rig models are built for the band below a few 100 Hz; "
+                        "above 1000 Hz the flexible bodies keep no modes", low_open=True)
+N_MODES = Bounded(int, 1, 10000, "", "a count of modes")
+
+
 def configure(parser: argparse.ArgumentParser) -> None:
     """Add the ``modes`` arguments."""
-    parser.add_argument("--model", type=int, required=True, help="model variant: 1, 2 or 3")
-    parser.add_argument("--damping", default="adams-default",
-                        help="damping function: adams-default, step, constant-1, constant-2, "
-                             "or table6 (thesis Table 6 per body, model 3)")
-    parser.add_argument("--mesh", default="production", help="mesh size: production (default), coarse or a size in m")
+    parser.add_argument("--model", type=int, choices=(1, 2, 3), required=True, help="rig model variant")
+    add_damping(parser, DAMPINGS, help_text="damping function (table6: thesis Table 6 per body, model 3)")
+    add_mesh(parser)
     parser.add_argument("--bushing", action="store_true",
-                        help="model 3: join the components by 6-DOF spring-damper bushings (default: fixed joints)")
-    parser.add_argument("--max-frequency", type=float, default=100.0, help="highest mode frequency in Hz")
-    parser.add_argument("--n-modes", type=int, default=None, help="at most this many modes")
+                        help="model 3: join the components by 6-DOF spring-damper bushings "
+                             "(default: fixed joints)")
+    parser.add_argument("--max-frequency", type=MAX_FREQUENCY, default=100.0, metavar="HZ",
+                        help="highest mode frequency in Hz")
+    parser.add_argument("--n-modes", type=N_MODES, default=None, metavar="N",
+                        help="at most this many modes (default: all up to --max-frequency)")
     parser.add_argument("--formulation", default="linear", choices=("linear", "ffrf"),
-                        help="flexible-body formulation (same linearised system; default linear)")
-    parser.add_argument("--cache-dir", default=None, help="flexible-body cache directory")
-    parser.add_argument("--json", required=True, help="output modes JSON file")
+                        help="flexible-body formulation (same linearised system)")
+    add_cache_dir(parser)
+    parser.add_argument("--json", required=True, metavar="OUT", help="output modes JSON file")
 
 
 def run(args: argparse.Namespace) -> int:
     """Build, linearise, write the modes JSON and print the table."""
-    from pathlib import Path
-
     from tqdm import tqdm
 
-    from exudyn_study.errors import InputError
     from exudyn_study.identify.model import write_modes_json
+    from exudyn_study.infra.cache import cache_dir
+    from exudyn_study.infra.files import OutputSet
     from exudyn_study.linear.modes import to_modal_model
     from exudyn_study.model import BushingParameters, build_model
     from exudyn_study.model.linearisation import linearise, system_modes
 
-    out = Path(args.json)
-    if not out.parent.is_dir():
-        raise InputError(f"--json {args.json!r}: directory {str(out.parent)!r} does not exist")
     damping = parse_damping(args.damping)
-    with tqdm(total=3, desc="modes", file=sys.stderr, disable=None) as bar:
-        model = build_model(args.model, damping=damping, mesh_size=parse_mesh(args.mesh),
-                            bushing=BushingParameters() if args.bushing else None, cache_dir=args.cache_dir,
-                            formulation=args.formulation, progress=lambda text: bar.set_postfix_str(text))
-        bar.update()
-        bar.set_postfix_str("linearising")
-        lin = linearise(model)
-        bar.update()
-        bar.set_postfix_str("eigenvalues")
-        modes = system_modes(model, lin, max_frequency_hz=args.max_frequency, n_modes=args.n_modes)
-        bar.update()
-    write_modes_json(to_modal_model(modes, model.metadata), out)
+    with OutputSet() as outputs:
+        out = outputs.file(args.json, "--json")
+        cache_dir(args.cache_dir)
+        quiet = True if getattr(args, "quiet", False) else None
+        with tqdm(total=3, desc="modes", file=sys.stderr, disable=quiet) as bar:
+            model = build_model(args.model, damping=damping, mesh_size=args.mesh,
+                                bushing=BushingParameters() if args.bushing else None,
+                                cache_dir=args.cache_dir, formulation=args.formulation,
+                                progress=lambda text: bar.set_postfix_str(text))
+            bar.update()
+            bar.set_postfix_str("linearising")
+            lin = linearise(model)
+            bar.update()
+            bar.set_postfix_str("eigenvalues")
+            modes = system_modes(model, lin, max_frequency_hz=args.max_frequency, n_modes=args.n_modes)
+            bar.update()
+        write_modes_json(to_modal_model(modes, model.metadata), out)
     print(modes_table(modes))
     return 0

@@ -1,9 +1,20 @@
-"""UFF58 (universal file, dataset 58) reading and writing of recordings, through pyuff."""
+"""UFF58 (universal file, dataset 58) reading and writing of recordings, through pyuff.
+
+Integrity: the writer puts the channel count and a SHA-256 of the channels' names and
+samples into the description of the file's header set (UFF 151,
+``exudyn_study UFF58 channels=N sha256=...``); the reader refuses a file of ours whose
+channels or samples do not match (cut short, bytes changed). Any UFF file must end with a
+closed dataset (its last line ``-1``): a file cut inside a dataset is refused, not read as
+the channels before the cut. Malformed tags (``fs=fast``) and sets pyuff cannot parse are
+:class:`~exudyn_study.errors.InputError`.
+"""
 
 from __future__ import annotations
 
 import gc
+import hashlib
 import json
+import re
 import warnings
 from pathlib import Path
 
@@ -78,16 +89,29 @@ def _check_uff_writable(recording: Recording) -> None:
         )
 
 
+_INTEGRITY = re.compile(r"exudyn_study UFF58 channels=(\d+) sha256=([0-9a-f]{32})")
+
+
+def _channels_digest(pairs) -> str:
+    """SHA-256 (first 32 hex digits) of (name, samples as float64 little endian) pairs, in order."""
+    digest = hashlib.sha256()
+    for name, data in pairs:
+        digest.update(str(name).encode())
+        digest.update(np.ascontiguousarray(np.asarray(data).real, dtype="<f8").tobytes())
+    return digest.hexdigest()[:32]
+
+
 def _write_uff(recording: Recording, path: Path) -> None:
     import pyuff
 
     from exudyn_study import __version__
 
     chunks = _meta_chunks(recording)
+    check = _channels_digest((ch.name, ch.data) for ch in recording.channels)
     sets: list[dict] = [
         pyuff.prepare_151(
             model_name=str(recording.metadata.get("model", "exudyn_study recording"))[:80],
-            description="exudyn_study recording (UFF58 time data)",
+            description=f"exudyn_study UFF58 channels={len(recording.channels)} sha256={check}",
             db_app="exudyn_study",
             program=f"exudyn_study {__version__}"[:80],
         ),
@@ -179,10 +203,63 @@ def _rate_from_increment(inc: float) -> float:
     return float(f"{rate:.6g}")
 
 
+def _float_tag(tags: dict, key: str, where: str, name: str) -> float | None:
+    if key not in tags:
+        return None
+    try:
+        value = float(tags[key])
+    except ValueError:
+        raise InputError(f"{where}: channel {name!r} tag {key}={tags[key]!r} is not a number") from None
+    if not np.isfinite(value) or value <= 0:
+        raise InputError(f"{where}: channel {name!r} tag {key}={tags[key]!r}; expected a number > 0")
+    return value
+
+
+def _check_closed(path: Path, where: str) -> None:
+    """Refuse a file cut inside a dataset: a UFF file ends with the line ``-1``."""
+    with open(path, "rb") as fh:
+        fh.seek(0, 2)
+        size = fh.tell()
+        fh.seek(max(0, size - 256))
+        tail = fh.read()
+    if not tail.rstrip().endswith(b" -1"):  # the delimiter is "-1" right-aligned in 6 columns
+        raise InputError(f"{where}: the last dataset is not closed (the file ends inside a dataset: "
+                         "cut short or damaged); re-export the file")
+
+
+def _verify_integrity(sets: list[dict], pairs: list, where: str) -> None:
+    """Check the channel count and digest a file of ours carries in its UFF 151 header."""
+    for s in sets:
+        if s.get("type") != 151:
+            continue
+        match = _INTEGRITY.search(str(s.get("description", "")))
+        if match is None:
+            return
+        n, digest = int(match.group(1)), match.group(2)
+        if len(pairs) != n:
+            raise InputError(f"{where}: holds {len(pairs)} of the {n} channels it was written with (cut "
+                             "short or edited); re-export the file")
+        if _channels_digest(pairs) != digest:
+            raise InputError(f"{where}: channel data do not match the file's checksum (damaged or edited "
+                             "after writing); re-export the file")
+        return
+
+
 def _read_uff(path: Path) -> Recording:
+    try:
+        return _read_uff_sets(path)
+    except InputError:
+        raise
+    except (KeyError, ValueError, TypeError, IndexError, OverflowError) as exc:
+        raise InputError(f"recording file {str(path)!r}: malformed UFF58 content ({type(exc).__name__}: "
+                         f"{' '.join(str(exc).split())[:160]})") from None
+
+
+def _read_uff_sets(path: Path) -> Recording:
     import pyuff
 
     where = f"recording file {str(path)!r}"
+    _check_closed(path, where)
     try:
         uff = pyuff.UFF(str(path))
         set_types = [int(t) for t in uff.get_set_types()]
@@ -211,7 +288,7 @@ def _read_uff(path: Path) -> Recording:
             for n, x, y, z in zip(s["node_nums"], s["x"], s["y"], s["z"], strict=True):
                 nodes[int(n)] = (x / length_factor, y / length_factor, z / length_factor)
 
-    channels, meta_text, skipped = [], [], []
+    channels, meta_text, skipped, raw_pairs = [], [], [], []
     for s in (sets[i] for i in idx58):
         name = str(s.get("id1", "")).strip()
         if int(s.get("func_type", 0)) != 1:
@@ -275,9 +352,9 @@ def _read_uff(path: Path) -> Recording:
                     f"{where}: channel {name!r} direction tag {tagged!r} disagrees with "
                     f"UFF response direction {rsp_dir}; the file was edited inconsistently"
                 )
-        if "fs" in tags:
-            rate = float(tags["fs"])
-        else:
+        raw_pairs.append((name, s["data"]))
+        rate = _float_tag(tags, "fs", where, name)
+        if rate is None:
             inc = float(s.get("abscissa_inc", 0.0))
             if not inc > 0:
                 raise InputError(
@@ -285,7 +362,7 @@ def _read_uff(path: Path) -> Recording:
                     "evenly sampled time data with an increment > 0 s"
                 )
             rate = _rate_from_increment(inc)
-        sens = tags.get("sensitivity")
+        sens = _float_tag(tags, "sensitivity", where, name)
         channels.append(
             Channel(
                 name=name,
@@ -296,9 +373,10 @@ def _read_uff(path: Path) -> Recording:
                 sample_rate_hz=rate,
                 data=data,
                 role=tags.get("role", "response"),
-                sensitivity=None if sens is None else float(sens),
+                sensitivity=sens,
             )
         )
+    _verify_integrity(sets, raw_pairs, where)
     if skipped:
         warnings.warn(
             f"{where}: skipped {len(skipped)} type-58 set(s) that are not time data: "

@@ -8,7 +8,8 @@ Layout of a configuration file::
     mode = "grid"                   # 'grid' (Cartesian product) or 'random'
     samples = 20                    # random mode: number of points
     seed = 1                        # seed of the points (and of random sampling)
-    imports = ["mypackage.tasks"]   # optional: modules that register user tasks
+    imports = ["mypackage.tasks"]   # optional: modules that register user tasks (imported
+                                    # only with allow_imports / ``--allow-imports``)
 
     [study.settings]                # fixed task parameters (model, signal, outputs...)
     model = "modal-table1"
@@ -27,8 +28,12 @@ In ``random`` mode each parameter is sampled ``samples`` times with the study se
 integers.
 
 Everything is checked before any task runs (:func:`load_config`): unknown task,
-unknown or repeated parameter names, empty ranges, and every expanded value against the
-task's declared type, bounds and choices (e.g. an unknown model). Errors are one-line
+unknown or repeated parameter names, empty ranges, more than :data:`MAX_POINTS` points,
+a ``study.name`` that is not a plain folder name (it names the output folder, so a path
+such as ``../../x`` is refused), ``study.imports`` without the explicit opt-in (importing a
+module runs its code: a configuration from someone else must not do that unasked), and
+every expanded value against the task's declared type, bounds and choices (e.g. an unknown
+model). Errors are one-line
 :class:`~exudyn_study.errors.InputError` messages naming the key and the fix.
 """
 
@@ -40,8 +45,8 @@ import itertools
 import json
 import math
 import os
+import re
 import socket
-import sys
 from collections.abc import Mapping
 from dataclasses import dataclass
 from pathlib import Path
@@ -53,11 +58,6 @@ import numpy as np
 
 from exudyn_study.errors import InputError
 from exudyn_study.sweep.tasks import TASKS, Task, TaskRegistry
-
-if sys.version_info >= (3, 11):
-    import tomllib
-else:  # pragma: no cover - Python 3.10
-    import tomli as tomllib
 
 __all__ = [
     "ParameterRange",
@@ -73,6 +73,15 @@ __all__ = [
 
 RANGE_KINDS = ("values", "linspace", "logspace", "range")
 MODES = ("grid", "random")
+#: most points of one sweep: each point is one task run (seconds to minutes), so 100 000
+#: points are days of work on a cluster; a larger count is a typo in a range
+MAX_POINTS = 100_000
+#: largest |exponent| of a logspace range: 10**308 is the largest double
+MAX_LOG_EXPONENT = 300
+#: largest seed: stored as a 64-bit integer in the results
+SEED_MAX = 2**63 - 1
+#: a study name is a folder name: letters, digits, '.', '_', '-' (not starting with '.')
+_NAME_PATTERN = re.compile(r"[A-Za-z0-9_-][A-Za-z0-9._-]{0,99}")
 _STUDY_KEYS = ("name", "task", "mode", "samples", "seed", "settings", "imports")
 
 
@@ -110,16 +119,34 @@ class ParameterRange:
                 raise InputError(f"{where} = {list(a)}: expected [start, stop, num] with an integer num")
             if a[2] < 1:
                 raise InputError(f"{where} = {list(a)}: empty range (num = {a[2]}); use num >= 1")
+            if a[2] > MAX_POINTS:
+                raise InputError(f"{where} = {list(a)}: {a[2]} values; at most {MAX_POINTS} points per sweep")
+            if self.kind == "logspace" and max(abs(a[0]), abs(a[1])) > MAX_LOG_EXPONENT:
+                raise InputError(f"{where} = {list(a)}: exponents beyond +-{MAX_LOG_EXPONENT} overflow a "
+                                 "double; give the exponents of 10")
             return
         if len(a) not in (2, 3) or not all(_is_int(v) for v in a):
             raise InputError(f"{where} = {list(a)}: expected integers [start, stop] or [start, stop, step]")
         step = a[2] if len(a) == 3 else 1
         if step == 0:
             raise InputError(f"{where} = {list(a)}: step 0; use a non-zero step")
+        if len(range(a[0], a[1] + (1 if step > 0 else -1), step)) > MAX_POINTS:
+            raise InputError(f"{where} = {list(a)}: more than {MAX_POINTS} values; at most {MAX_POINTS} "
+                             "points per sweep")
         if not self.grid_values():
             raise InputError(
                 f"{where} = {list(a)}: empty range (stop is inclusive; start <= stop for a positive step)"
             )
+
+    def n_values(self) -> int:
+        """Return the number of grid values (without listing them)."""
+        a = self.args
+        if self.kind == "values":
+            return len(a)
+        if self.kind in ("linspace", "logspace"):
+            return int(a[2])
+        step = a[2] if len(a) == 3 else 1
+        return len(range(a[0], a[1] + (1 if step > 0 else -1), step))
 
     def grid_values(self) -> list:
         """Return the values of a grid sweep, in order."""
@@ -235,7 +262,8 @@ class SweepConfig:
         }
 
 
-def load_config(path: str | os.PathLike, registry: TaskRegistry | None = None) -> SweepConfig:
+def load_config(path: str | os.PathLike, registry: TaskRegistry | None = None,
+                allow_imports: bool = False) -> SweepConfig:
     """Read and validate a sweep configuration file.
 
     Parameters
@@ -244,6 +272,9 @@ def load_config(path: str | os.PathLike, registry: TaskRegistry | None = None) -
         TOML file.
     registry : TaskRegistry, optional
         Task registry (default :data:`~exudyn_study.sweep.tasks.TASKS`).
+    allow_imports : bool
+        Import the modules listed in ``study.imports`` (they run code); without it a
+        configuration that lists any is refused.
 
     Returns
     -------
@@ -253,22 +284,25 @@ def load_config(path: str | os.PathLike, registry: TaskRegistry | None = None) -
     Raises
     ------
     InputError
-        Unreadable file, TOML syntax error, or any of the checks of :func:`parse_config`.
+        Unreadable or non-UTF-8 file, TOML syntax error, or any of the checks of
+        :func:`parse_config`.
     """
+    from exudyn_study.infra.files import load_toml_input
+
     p = Path(path)
+    data = load_toml_input(p, "sweep configuration")
+    default_name = re.sub(r"[^A-Za-z0-9._-]", "_", p.stem).lstrip(".")[:100] or "sweep"
     try:
-        text = p.read_text()
-    except OSError as exc:
-        raise InputError(f"sweep configuration {str(p)!r}: cannot read it ({exc.strerror})") from None
-    try:
-        data = tomllib.loads(text)
-    except tomllib.TOMLDecodeError as exc:
-        raise InputError(f"sweep configuration {str(p)!r}: TOML syntax error: {exc}") from None
-    return parse_config(data, source=str(p), default_name=p.stem, registry=registry)
+        return parse_config(data, source=str(p), default_name=default_name, registry=registry,
+                            allow_imports=allow_imports)
+    except InputError as exc:  # name the file as well as the key
+        text = str(exc)
+        where = f"sweep configuration {str(p)!r}"
+        raise InputError(text if text.startswith(str(p)) else f"{where}: {text}") from None
 
 
 def parse_config(data: Mapping[str, Any], source: str = "<config>", default_name: str = "sweep",
-                 registry: TaskRegistry | None = None) -> SweepConfig:
+                 registry: TaskRegistry | None = None, allow_imports: bool = False) -> SweepConfig:
     """Validate the parsed TOML ``data`` (see the module notes) into a :class:`SweepConfig`.
 
     Every point is expanded and each value checked against the task's declarations, so a
@@ -291,9 +325,16 @@ def parse_config(data: Mapping[str, Any], source: str = "<config>", default_name
     bad = sorted(set(study) - set(_STUDY_KEYS))
     if bad:
         raise InputError(f"study.{bad[0]}: unknown key; [study] accepts {list(_STUDY_KEYS)}")
+    study_name = study.get("name", default_name)
+    if not isinstance(study_name, str) or not _NAME_PATTERN.fullmatch(study_name):
+        raise InputError(f"study.name = {study_name!r}: expected a folder name of letters, digits, '.', "
+                         "'_' or '-' (not a path; it names the output folder sweep-results/<name>)")
     imports = study.get("imports", [])
-    if isinstance(imports, str) or not all(isinstance(m, str) for m in imports):
+    if not isinstance(imports, list) or not all(isinstance(m, str) for m in imports):
         raise InputError(f"study.imports = {imports!r}: expected a list of module names")
+    if imports and not allow_imports:
+        raise InputError(f"study.imports = {imports!r}: importing a module runs its code; pass "
+                         "--allow-imports if you trust this configuration")
     for module in imports:
         try:
             importlib.import_module(module)
@@ -308,13 +349,16 @@ def parse_config(data: Mapping[str, Any], source: str = "<config>", default_name
     samples = study.get("samples", 0)
     if not _is_int(samples) or samples < 0:
         raise InputError(f"study.samples = {samples!r}: expected a positive integer")
+    if samples > MAX_POINTS:
+        raise InputError(f"study.samples = {samples!r}: at most {MAX_POINTS} points per sweep")
     if mode == "random" and samples < 1:
         raise InputError("study.samples: random mode needs samples = N >= 1")
     if mode == "grid" and samples:
         raise InputError("study.samples is only used with mode = 'random'; remove it or set the mode")
     seed = study.get("seed", 0)
-    if not _is_int(seed) or seed < 0:
-        raise InputError(f"study.seed = {seed!r}: expected an integer >= 0")
+    if not _is_int(seed) or not 0 <= seed <= SEED_MAX:
+        raise InputError(f"study.seed = {seed!r}: expected an integer in [0, 2**63 - 1] (stored as a 64-bit "
+                         "integer)")
     settings_raw = study.get("settings", {})
     if not isinstance(settings_raw, Mapping):
         raise InputError("study.settings: expected a table of task parameters")
@@ -351,8 +395,8 @@ def parse_config(data: Mapping[str, Any], source: str = "<config>", default_name
         for v in r.grid_values() if kind in ("values", "range") else list(r.args[:2]):
             where = f"parameters.{name}.{kind}"
             if name == "seed":
-                if not _is_int(v) or v < 0:
-                    raise InputError(f"{where}: seed {v!r}; expected integers >= 0")
+                if not _is_int(v) or not 0 <= v <= SEED_MAX:
+                    raise InputError(f"{where}: seed {v!r}; expected integers in [0, 2**63 - 1]")
             else:
                 _check_range_value(declared[name], r, v, where)
             if kind == "values":
@@ -367,8 +411,13 @@ def parse_config(data: Mapping[str, Any], source: str = "<config>", default_name
         raise InputError(
             f"study.settings: task {task.name!r} needs {', '.join(declared[m].describe() for m in missing)}"
         )
+    if mode == "grid":
+        n_points = math.prod(r.n_values() for r in ranges)
+        if n_points > MAX_POINTS:
+            raise InputError(f"[parameters]: the grid has {n_points} points; at most {MAX_POINTS} per sweep "
+                             "(use mode = 'random' with samples = N, or fewer values)")
     config = SweepConfig(
-        name=str(study.get("name", default_name)), task=task.name, settings=settings,
+        name=study_name, task=task.name, settings=settings,
         parameters=tuple(ranges), mode=mode, samples=samples, seed=seed,
         imports=tuple(imports), source=source,
     )

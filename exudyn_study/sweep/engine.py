@@ -38,7 +38,9 @@ import json
 import logging
 import math
 import os
+import signal
 import socket
+import sys
 import tempfile
 import time
 import traceback
@@ -179,9 +181,13 @@ def read_rows(out_dir: str | os.PathLike) -> dict[str, dict]:
         return rows
     for path in shard_dir.glob("*.json"):
         try:
-            row = json.loads(path.read_text())
-        except (OSError, ValueError) as exc:  # cannot happen with atomic writes; be safe
-            log.warning("ignoring unreadable result %s (%s); the point will run again", path, exc)
+            row = json.loads(path.read_text(encoding="utf-8"))
+        except (OSError, ValueError, RecursionError) as exc:  # damaged or edited by hand
+            log.warning("ignoring unreadable result %s (%s); the point will run again", path.name, exc)
+            continue
+        if not isinstance(row, dict) or row.get("point_id") != path.stem:
+            log.warning("ignoring result %s: not a row of point %s; the point will run again", path.name,
+                        path.stem)
             continue
         rows[row["point_id"]] = row
     return rows
@@ -226,7 +232,7 @@ class _Store:
         try:
             import pyarrow as pa
             import pyarrow.parquet as pq
-        except ImportError:
+        except ImportError:  # the CLI says so: results.csv only
             return
         columns = {f: _column([r.get(f) for r in rows]) for f in fields}
         path = self.out_dir / "results.parquet"
@@ -282,6 +288,33 @@ def _single_threaded_workers():
                 os.environ[v] = old
 
 
+def _die_with_parent(parent_pid: int) -> None:
+    """Pool-worker initializer: end this worker when the process that started it is gone.
+
+    A killed sweep (SIGKILL, out of memory) cannot shut its pool down; without this its
+    workers would finish their queue and the resource tracker would wait for them. On Linux
+    the kernel sends SIGKILL at the parent's death (``PR_SET_PDEATHSIG``); everywhere a
+    daemon thread also checks once a second that the parent is still the same process.
+    """
+    import threading
+
+    if sys.platform.startswith("linux"):
+        import ctypes
+
+        with contextlib.suppress(OSError, AttributeError):
+            ctypes.CDLL("libc.so.6", use_errno=True).prctl(1, signal.SIGKILL)  # 1: PR_SET_PDEATHSIG
+    if os.getppid() != parent_pid:  # the parent died before the call above
+        os._exit(1)
+
+    def watch() -> None:
+        while True:
+            time.sleep(1.0)
+            if os.getppid() != parent_pid:
+                os._exit(1)
+
+    threading.Thread(target=watch, name="exudyn-study-parent-watch", daemon=True).start()
+
+
 def _failed_row(p: Point, message: str) -> dict:
     from exudyn_study import __version__
 
@@ -297,7 +330,8 @@ def _run_local(task: Task, points: list[Point], artefacts: list[tuple], workers:
     phase_artefacts = list(artefacts)
     with _single_threaded_workers():
         while pending or phase_artefacts:
-            executor = ProcessPoolExecutor(max_workers=workers, mp_context=ctx)
+            executor = ProcessPoolExecutor(max_workers=workers, mp_context=ctx, initializer=_die_with_parent,
+                                           initargs=(os.getpid(),))
             try:
                 if phase_artefacts:
                     futs = [executor.submit(_build_artefact, b, a) for _, b, a in phase_artefacts]
@@ -354,17 +388,25 @@ def _run_dask(task: Task, points: list[Point], artefacts: list[tuple], address: 
                     fut.result()
                 except Exception as exc:
                     log.warning("shared artefact %s failed: %s", key, exc)
+                fut.release()
+            del futs
         futures = {
             client.submit(run_point, task.function, dict(p.params), p.seed, p.key, p.index,
                           key=f"{task.name}-{p.key}-{run}", pure=False, retries=retries): p
             for p in points
         }
-        for fut in as_completed(futures):
-            p = futures[fut]
+        pending = as_completed(list(futures))
+        for fut in pending:
+            p = futures.pop(fut)
             try:
-                on_row(fut.result())
+                row = fut.result()
             except Exception as exc:  # KilledWorker after repeated worker deaths, lost scheduler
-                on_row(_failed_row(p, f"{type(exc).__name__}: {exc}"))
+                row = _failed_row(p, f"{type(exc).__name__}: {exc}")
+            on_row(row)
+            # saved: release the result, so that a worker dying later does not make the
+            # scheduler recompute a point whose row is already on disk
+            fut.release()
+            del fut
 
 
 # ---------------------------------------------------------------------------------------
@@ -476,7 +518,13 @@ def run_sweep(
     bar = tqdm(total=len(points), initial=len(points) - len(todo), unit="pt", desc=config.name,
                disable=not progress or None, dynamic_ncols=True)
 
+    recorded: set[str] = set()
+
     def on_row(row: dict) -> None:
+        if row["point_id"] in recorded:  # a second result of one point (a resubmission): keep the first
+            log.warning("point %s returned twice; its first row is kept", row["point_id"])
+            return
+        recorded.add(row["point_id"])
         store.add(row)
         bar.update(1)
         if row["status"] != "ok":

@@ -6,7 +6,6 @@
 
 from __future__ import annotations
 
-import json
 import logging
 import os
 from collections.abc import Callable, Mapping
@@ -85,14 +84,10 @@ def damping_from_calibration(source: str | os.PathLike | Mapping) -> dict:
     if isinstance(source, Mapping):
         data = source
     else:
+        from exudyn_study.infra.files import load_json_input
+
         where = f"calibration {str(source)!r}"
-        path = Path(source)
-        if not path.is_file():
-            raise InputError(f"{where}: file does not exist")
-        try:
-            data = json.loads(path.read_text(encoding="utf-8"))
-        except (OSError, ValueError) as exc:
-            raise InputError(f"{where}: not readable JSON ({exc})") from None
+        data = load_json_input(Path(source), "calibration")
     if not isinstance(data, Mapping) or data.get("format") != _CALIBRATION_FORMAT:
         raise InputError(f"{where}: expected a {_CALIBRATION_FORMAT!r} JSON (exudyn-study calibrate --json)")
     bodies = data.get("body_damping")
@@ -100,6 +95,8 @@ def damping_from_calibration(source: str | os.PathLike | Mapping) -> dict:
         raise InputError(f"{where}: no 'body_damping' entries")
     out: dict = {}
     for body, entry in bodies.items():
+        if not isinstance(entry, Mapping):
+            raise InputError(f"{where}: body {body!r} is a {type(entry).__name__}; expected an object")
         try:
             f = tuple(float(v) for v in entry["frequency_hz"])
             r = list(entry["damping_ratio"])
@@ -110,7 +107,12 @@ def damping_from_calibration(source: str | os.PathLike | Mapping) -> dict:
         if len(f) != len(r):
             raise InputError(f"{where}: body {body!r} has {len(f)} frequencies and {len(r)} ratios")
         out[body] = _CalibratedBody(str(body), f, r)
-    other = (data.get("metadata") or {}).get("other_damping", "adams-default")
+    metadata = data.get("metadata") or {}
+    if not isinstance(metadata, Mapping):
+        raise InputError(f"{where}: 'metadata' is a {type(metadata).__name__}; expected an object")
+    other = metadata.get("other_damping", "adams-default")
+    if not isinstance(other, str):
+        raise InputError(f"{where}: metadata.other_damping = {other!r}; expected a damping name")
     out.setdefault("rear_foundation", other)
     return out
 

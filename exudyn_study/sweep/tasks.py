@@ -25,6 +25,7 @@ or in the ``__main__`` of a script guarded by ``if __name__ == '__main__'``).
 
 from __future__ import annotations
 
+import logging
 import math
 import os
 import time
@@ -36,6 +37,8 @@ from typing import Any
 import numpy as np
 
 from exudyn_study.errors import InputError
+
+log = logging.getLogger(__name__)
 
 __all__ = [
     "Parameter",
@@ -284,7 +287,7 @@ def get_task(name: str, registry: TaskRegistry | None = None) -> Task:
 
 
 def sleep_cpu(*, seed: int, seconds: float = 0.2, size: int = 20_000, pid_dir: str = "",
-              fail: bool = False) -> dict[str, Any]:
+              run_log: str = "", fail: bool = False) -> dict[str, Any]:
     """Burn ``seconds`` of this process's CPU time on NumPy work; return a seeded checksum.
 
     The amount of work is fixed in CPU time (``time.process_time``), not wall time, so a
@@ -301,6 +304,9 @@ def sleep_cpu(*, seed: int, seconds: float = 0.2, size: int = 20_000, pid_dir: s
     pid_dir : str
         If not empty, a file ``<pid>`` is created in this directory when the task starts
         (tests use it to kill a worker).
+    run_log : str
+        If not empty, a file ``<seed>.<pid>.<start time in ns>`` is created in this directory
+        when the task starts (tests count the executions of each point with it).
     fail : bool
         Raise ``RuntimeError`` (tests of failed rows).
 
@@ -311,6 +317,8 @@ def sleep_cpu(*, seed: int, seconds: float = 0.2, size: int = 20_000, pid_dir: s
     """
     if pid_dir:
         open(os.path.join(pid_dir, str(os.getpid())), "w").close()
+    if run_log:
+        open(os.path.join(run_log, f"{seed}.{os.getpid()}.{time.time_ns()}"), "w").close()
     if fail:
         raise RuntimeError("sleep_cpu asked to fail")
     x = np.random.default_rng(seed).standard_normal(size)
@@ -331,6 +339,7 @@ TASKS.register(
             Parameter("seconds", "float", "s", (0.0, 3600.0), default=0.2, doc="CPU time per point"),
             Parameter("size", "int", "", (1, 10_000_000), default=20_000, doc="work array length"),
             Parameter("pid_dir", "str", default="", doc="directory for a <pid> file (tests)"),
+            Parameter("run_log", "str", default="", doc="directory for one file per execution (tests)"),
             Parameter("fail", "bool", default=False, doc="raise (tests)"),
         ),
         summary=("checksum",),
@@ -579,7 +588,11 @@ def _virtual_measurement(scenario_name: str, signal: str, seed: int, duration_s:
     folder.mkdir(parents=True, exist_ok=True)
     path = folder / f"{sc.name}_{signal}_s{seed}_{duration_s:g}s.h5"
     if path.exists():
-        return read_recording(path)
+        try:
+            return read_recording(path)  # verified by the recording's checksum
+        except InputError as exc:  # damaged (cut short, bytes changed): rebuilt, never used
+            log.warning("cached virtual recording %s is damaged (%s); rebuilding it", path.name, exc)
+            path.unlink(missing_ok=True)
     rec = virtual_recording(sc, signal, duration_s)
     write_recording(rec, path)
     return rec
