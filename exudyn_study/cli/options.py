@@ -143,7 +143,28 @@ class Bounded:
 
 
 def parse_mesh_option(text: str):
-    """Parse ``--mesh``: ``'coarse'``, ``'production'`` or an element size in m within bounds."""
+    """Parse ``--mesh``: ``'coarse'``, ``'production'`` or an element size in m within bounds.
+
+    Used as the argparse ``type`` of ``--mesh``, so a bad value is refused by the parser.
+
+    Parameters
+    ----------
+    text : str
+        The option's value as given on the command line: ``'coarse'``, ``'production'`` or a
+        number, the element size of the flexible bodies' mesh in m.
+
+    Returns
+    -------
+    str or float
+        The preset name unchanged, or the element size in m (within
+        [:data:`MESH_MIN_M`, :data:`MESH_MAX_M`]).
+
+    Raises
+    ------
+    argparse.ArgumentTypeError
+        If ``text`` is neither a preset name nor a number, or the size is out of bounds (the
+        message gives the range and why it is there).
+    """
     if text in ("coarse", "production"):
         return text
     size = Bounded(float, MESH_MIN_M, MESH_MAX_M, "m",
@@ -165,7 +186,16 @@ def _is_number(text: str) -> bool:
 
 
 def add_mesh(parser: argparse.ArgumentParser, help_text: str = "mesh of the flexible bodies") -> None:
-    """Add ``--mesh {coarse,production,SIZE_M}``."""
+    """Add ``--mesh {coarse,production,SIZE_M}`` (default ``'production'``).
+
+    Parameters
+    ----------
+    parser : argparse.ArgumentParser
+        The (sub)command parser the option is added to.
+    help_text : str, optional
+        What the mesh is of, the start of the option's help; the accepted values and the size
+        range in m are appended.
+    """
     parser.add_argument("--mesh", type=parse_mesh_option, default="production",
                         metavar="{coarse,production,SIZE_M}",
                         help=f"{help_text}: coarse, production or an element size in m "
@@ -173,19 +203,59 @@ def add_mesh(parser: argparse.ArgumentParser, help_text: str = "mesh of the flex
 
 
 def add_hidden_alias(parser: argparse.ArgumentParser, old: str, dest: str, **kwargs) -> None:
-    """Accept the old spelling ``old`` of an option (stored in ``dest``) without listing it in --help."""
+    """Accept the old spelling ``old`` of an option (stored in ``dest``) without listing it in --help.
+
+    The alias has no default (``argparse.SUPPRESS``), so when it is not given it leaves the
+    value of the current option that shares ``dest`` untouched.
+
+    Parameters
+    ----------
+    parser : argparse.ArgumentParser
+        The (sub)command parser that has the current option.
+    old : str
+        The old option string, e.g. ``'--reg'``.
+    dest : str
+        Attribute of the parsed namespace that the current option fills, e.g.
+        ``'regularization'``; the alias stores its value there too.
+    **kwargs
+        Further ``add_argument`` arguments, as for the current option (typically its
+        ``type``, so the alias is parsed and bounded the same way).
+    """
     parser.add_argument(old, dest=dest, default=argparse.SUPPRESS, help=argparse.SUPPRESS, **kwargs)
 
 
 def add_cache_dir(parser: argparse.ArgumentParser) -> None:
-    """Add ``--cache-dir DIR`` (flexible-body cache)."""
+    """Add ``--cache-dir DIR`` (flexible-body cache).
+
+    The default None means ``$EXUDYN_STUDY_CACHE``, else ``~/.cache/exudyn_study`` (resolved by
+    :func:`exudyn_study.infra.cache.cache_dir`).
+
+    Parameters
+    ----------
+    parser : argparse.ArgumentParser
+        The (sub)command parser the option is added to.
+    """
     parser.add_argument("--cache-dir", default=None, metavar="DIR",
                         help="flexible-body cache directory (default: $EXUDYN_STUDY_CACHE or "
                              "~/.cache/exudyn_study)")
 
 
 def add_seed(parser: argparse.ArgumentParser, default: int | None, help_text: str) -> None:
-    """Add ``--seed N`` (an integer in [0, 2**63 - 1])."""
+    """Add ``--seed N`` (an integer in [0, 2**63 - 1]).
+
+    The upper bound is :data:`SEED_MAX`: the seed is stored as a 64-bit integer in the
+    recording's metadata.
+
+    Parameters
+    ----------
+    parser : argparse.ArgumentParser
+        The (sub)command parser the option is added to.
+    default : int or None
+        Seed used when the option is not given; None leaves the choice to the command (e.g.
+        the scenario's own seed).
+    help_text : str
+        The option's help: what the seed drives in this command.
+    """
     parser.add_argument("--seed", type=Bounded(int, 0, SEED_MAX, "",
                                                "stored as a 64-bit integer in the recording's metadata"),
                         default=default, metavar="N", help=help_text)
@@ -193,13 +263,38 @@ def add_seed(parser: argparse.ArgumentParser, default: int | None, help_text: st
 
 def add_damping(parser: argparse.ArgumentParser, choices: tuple[str, ...], default: str = "adams-default",
                 help_text: str = "damping function of the flexible bodies") -> None:
-    """Add ``--damping NAME`` with its choices listed."""
+    """Add ``--damping NAME`` with its choices listed.
+
+    Parameters
+    ----------
+    parser : argparse.ArgumentParser
+        The (sub)command parser the option is added to.
+    choices : tuple of str
+        Names of the damping functions the command accepts; any other name is refused by the
+        parser, and the names are listed in the help.
+    default : str, optional
+        Damping function used when the option is not given; should be one of ``choices``.
+    help_text : str, optional
+        The start of the option's help; the choices are appended.
+    """
     parser.add_argument("--damping", choices=choices, default=default, metavar="NAME",
                         help=f"{help_text}: {', '.join(choices)}")
 
 
 def add_verbosity(parser: argparse.ArgumentParser, *, top_level: bool) -> None:
-    """Add ``-v/--verbose`` and ``-q/--quiet``; after the subcommand they override nothing unless given."""
+    """Add ``-v/--verbose`` and ``-q/--quiet``; after the subcommand they override nothing unless given.
+
+    The two flags are mutually exclusive within one parser.
+
+    Parameters
+    ----------
+    parser : argparse.ArgumentParser
+        The top-level parser or a subcommand's parser.
+    top_level : bool
+        True for the top-level parser: the flags default to False. False for a subcommand's
+        parser: they have no default (``argparse.SUPPRESS``), so a flag given before the
+        subcommand is not reset by the subcommand's parser when it is not repeated after it.
+    """
     default = False if top_level else argparse.SUPPRESS
     group = parser.add_mutually_exclusive_group()
     group.add_argument("-v", "--verbose", action="store_true", default=default, help="log progress details")

@@ -96,7 +96,25 @@ def _remove(*paths: Path) -> None:
 
 @contextlib.contextmanager
 def entry_lock(root: Path, key: str) -> Iterator[None]:
-    """Hold the exclusive lock of cache entry ``key`` in ``root`` (blocks until it is free)."""
+    """Hold the exclusive lock of cache entry ``key`` in ``root`` (blocks until it is free).
+
+    A context manager: the lock (``fcntl.flock`` on ``<key>.lock``, created when missing) is
+    held for the body of the ``with`` block and released when it ends, also on an exception.
+    Every change of an entry happens under it, so concurrent builders of one key build it once
+    and never remove each other's files. Without ``fcntl`` (not POSIX) nothing is locked.
+
+    Parameters
+    ----------
+    root : Path
+        The cache directory (as returned by :func:`cache_dir`); it must exist.
+    key : str
+        The entry's key, the SHA-256 hex digest of its recipe (:func:`recipe_key`).
+
+    Yields
+    ------
+    None
+        Control, while the lock is held.
+    """
     if fcntl is None:  # pragma: no cover
         yield
         return

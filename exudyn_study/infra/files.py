@@ -111,7 +111,28 @@ def check_input_file(path: str | os.PathLike, option: str, *, max_bytes: int = M
 
 
 def read_text_input(path: str | os.PathLike, option: str, *, max_bytes: int = MAX_TEXT_BYTES) -> str:
-    """Read a checked input file as strict UTF-8 (see :func:`check_input_file`)."""
+    """Read a checked input file as strict UTF-8 (see :func:`check_input_file`).
+
+    Parameters
+    ----------
+    path : path-like
+        The file given on the command line.
+    option : str
+        The option that named it (``'--config'``), for the message.
+    max_bytes : int, optional
+        Largest accepted size in bytes; a larger file is refused before it is read.
+
+    Returns
+    -------
+    str
+        The file's whole content.
+
+    Raises
+    ------
+    InputError
+        If the file fails :func:`check_input_file`, cannot be read, or is not valid UTF-8 (the
+        message names the offending byte's position).
+    """
     p = check_input_file(path, option, max_bytes=max_bytes)
     try:
         raw = p.read_bytes()
@@ -156,7 +177,27 @@ def _parse_float(text: str) -> float:
 
 
 def parse_json_text(text: str, where: str) -> Any:
-    """Parse JSON text strictly (no NaN/Infinity, bounded integers and nesting); InputError on failure."""
+    """Parse JSON text strictly (no NaN/Infinity, bounded integers and nesting); InputError on failure.
+
+    Parameters
+    ----------
+    text : str
+        The JSON document.
+    where : str
+        Where the text comes from, the start of every message (e.g. ``"--json 'result.json'"``).
+
+    Returns
+    -------
+    Any
+        The parsed value (dict, list, str, int, float, bool or None).
+
+    Raises
+    ------
+    InputError
+        If the text is not valid JSON, holds ``NaN``/``Infinity`` or a float that overflows a
+        double, an integer of more than ``MAX_INT_DIGITS`` digits, or nests more than
+        ``MAX_NESTING`` levels.
+    """
     try:
         value = json.loads(text, parse_constant=_reject_constant, parse_int=_parse_int,
                            parse_float=_parse_float)
@@ -170,13 +211,54 @@ def parse_json_text(text: str, where: str) -> Any:
 
 
 def load_json_input(path: str | os.PathLike, option: str, *, max_bytes: int = MAX_TEXT_BYTES) -> Any:
-    """Read and parse a JSON input file strictly (see :func:`parse_json_text`)."""
+    """Read and parse a JSON input file strictly (see :func:`parse_json_text`).
+
+    Parameters
+    ----------
+    path : path-like
+        The file given on the command line.
+    option : str
+        The option that named it (``'--json'``), for the message.
+    max_bytes : int, optional
+        Largest accepted size in bytes; a larger file is refused before it is read.
+
+    Returns
+    -------
+    Any
+        The parsed value.
+
+    Raises
+    ------
+    InputError
+        If the file fails :func:`read_text_input` or its text fails :func:`parse_json_text`.
+    """
     text = read_text_input(path, option, max_bytes=max_bytes)
     return parse_json_text(text, f"{option} {str(path)!r}")
 
 
 def load_toml_input(path: str | os.PathLike, option: str, *, max_bytes: int = MAX_TEXT_BYTES) -> dict:
-    """Read and parse a TOML input file; every parse failure is an InputError."""
+    """Read and parse a TOML input file; every parse failure is an InputError.
+
+    Parameters
+    ----------
+    path : path-like
+        The file given on the command line.
+    option : str
+        The option that named it (``'--config'``), for the message.
+    max_bytes : int, optional
+        Largest accepted size in bytes; a larger file is refused before it is read.
+
+    Returns
+    -------
+    dict
+        The parsed document.
+
+    Raises
+    ------
+    InputError
+        If the file fails :func:`read_text_input`, is not valid TOML, or nests more than
+        ``MAX_NESTING`` levels.
+    """
     if sys.version_info >= (3, 11):
         import tomllib
     else:  # pragma: no cover
@@ -200,7 +282,30 @@ def _one_line(exc: BaseException) -> str:
 
 
 def nearest_existing_dir(path: Path, option: str) -> Path:
-    """Return the deepest existing ancestor of ``path``; InputError if it is a file."""
+    """Return the deepest existing ancestor of ``path``; InputError if it is a file.
+
+    This is the directory in which an output that does not exist yet will be created, so its
+    writability can be checked before any work.
+
+    Parameters
+    ----------
+    path : Path
+        An output path, which need not exist; a relative path is taken from the working
+        directory.
+    option : str
+        The option that named it (``'--out'``), for the message.
+
+    Returns
+    -------
+    Path
+        The absolute path of ``path`` itself when it exists, else of its deepest existing
+        ancestor.
+
+    Raises
+    ------
+    InputError
+        If that existing path is not a directory (a file is in the way).
+    """
     current = Path(os.path.abspath(path))
     while not current.exists():
         if current.parent == current:
@@ -256,7 +361,15 @@ class OutputSet:
         self._committed = False
 
     def add_input(self, option: str, value: Any) -> None:
-        """Register input file(s) that no output may overwrite."""
+        """Register input file(s) that no output may overwrite.
+
+        Parameters
+        ----------
+        option : str
+            The option that named the input(s) (``'--measured'``), for the message.
+        value : path-like, list or tuple of path-like, or None
+            The input path(s); None, None entries and empty paths are ignored.
+        """
         if value is None:
             return
         values = value if isinstance(value, (list, tuple)) else [value]
@@ -298,6 +411,20 @@ class OutputSet:
     def file(self, path: str | os.PathLike | None, option: str) -> Path | None:
         """Declare an output file; return the staging path to write it to (None stays None).
 
+        Parameters
+        ----------
+        path : path-like or None
+            The output file's target path; None (an output not asked for) declares nothing.
+        option : str
+            The option that named it (``'--json'``), for the messages.
+
+        Returns
+        -------
+        Path or None
+            Where to write the file now: inside a staging directory, named after the target
+            with its suffix kept (so a writer that picks the format by suffix still works); it
+            is renamed onto ``path`` at :meth:`commit`. None if ``path`` is None.
+
         Raises
         ------
         InputError
@@ -317,6 +444,23 @@ class OutputSet:
 
         Files written into the staging directory are moved into ``path`` at the end,
         replacing files of the same name there; other files in ``path`` are kept.
+
+        Parameters
+        ----------
+        path : path-like or None
+            The output directory's target path; None (an output not asked for) declares nothing.
+        option : str
+            The option that named it (``'--plots'``), for the messages.
+
+        Returns
+        -------
+        Path or None
+            The staging directory to write into now; None if ``path`` is None.
+
+        Raises
+        ------
+        InputError
+            The path is empty, a file, an input, another output, or in an unwritable place.
         """
         if path is None:
             return None
