@@ -148,7 +148,7 @@ def _calibrate(args, target):
 
     above, other = min(args.above_percent / 100.0, MAX_RATIO), damping_function(args.other_damping)
     try:
-        from exudyn_study.model.variants import build_model
+        from exudyn_study.model import build_model
     except ImportError as exc:
         raise StudyError(
             f"the rig models (exudyn_study.model.build_model) are not available: {exc}"

@@ -120,7 +120,7 @@ def _iterate(args: argparse.Namespace, variant: int, out: Path, json_path: Path 
             f"it has {', '.join(measured.names[:10])}{', ...' if len(measured) > 10 else ''}")
 
     t0 = time.perf_counter()
-    from exudyn_study.model.variants import build_model
+    from exudyn_study.model import build_model
     from exudyn_study.signals.drive_iteration import target_from_recording
     from exudyn_study.signals.drives import resample
     from exudyn_study.simulate.drive import OUTPUT_RATE_HZ

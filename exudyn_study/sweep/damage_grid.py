@@ -423,7 +423,7 @@ def run_grid(
 
 def _run_grid(measured, models, dampings, signals, iterate, out_dir, *, control, channels, beta, rate_hz,
               max_iter, tol, reg, calibrations, builder, mesh_size, cache_dir, plots, progress) -> GridResult:
-    from exudyn_study.model.variants import VARIANTS
+    from exudyn_study.model import VARIANTS
 
     t_start = time.perf_counter()
     say = progress or (lambda text: log.info("%s", text))
@@ -474,7 +474,7 @@ def _run_grid(measured, models, dampings, signals, iterate, out_dir, *, control,
 
     probe_builder = builder
     if builder is None:
-        from exudyn_study.model.variants import build_model
+        from exudyn_study.model import build_model
 
         def builder(variant, damping):
             return build_model(variant, damping=damping, mesh_size=mesh_size, cache_dir=cache_dir,

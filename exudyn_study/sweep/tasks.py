@@ -601,7 +601,7 @@ def _virtual_measurement(scenario_name: str, signal: str, seed: int, duration_s:
 def _rig_damping_sensitivity(model, signal, damping, damping_scale, ratio, step, duration_s, seed, beta,
                              measured_scenario):
     from exudyn_study.bodies.damping import MAX_RATIO, THESIS_TABLE6, PerBody
-    from exudyn_study.model.variants import build_model
+    from exudyn_study.model import build_model
     from exudyn_study.signals.fatigue import pseudo_damage
     from exudyn_study.simulate.run import simulate
 

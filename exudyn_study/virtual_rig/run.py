@@ -70,7 +70,7 @@ def build_truth(sc: Scenario, bodies=None, sensors=None, cache_dir=None):
         One record per augmentation, in the scenario's order.
     """
     from exudyn_study.bodies.damping import parse_damping
-    from exudyn_study.model.variants import BushingParameters, build_model, build_model_from_bodies
+    from exudyn_study.model import BushingParameters, build_model, build_model_from_bodies
     from exudyn_study.physics.catalogue import entry
 
     sc.validate()
