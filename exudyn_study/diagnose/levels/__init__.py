@@ -1,0 +1,270 @@
+"""Level-trend diagnosis of a structure tested at several drive levels, as stages over data.
+
+:func:`diagnose_levels` lists its stages; each is a module with functions over frozen data:
+
+1. **compare** (:mod:`.frf`, :mod:`.reference`): FRFs per level that fit the excitation (whole
+   periods at the excited lines for a multisine, with noise and distortion levels; LRM or H1
+   for random), the contiguous excited band, the reference model (PolyMAX + LSFD with residual
+   terms) from the lowest level, and its check against its own recording: a misfit stops the
+   diagnosis with the band and modes that fail;
+2. **amplitude** (:mod:`.amplitude`): every mode's frequency, damping and amplitude per level
+   with standard deviations (the table a nonlinear-GVT engineer looks at first);
+3. **screen** (:mod:`.screen`): the level dependence of every mode from its trend across the
+   levels (friction, softening, hardening, clearance, damping, linear but mis-modelled);
+4. **locate** (:mod:`.locate`): the sensor pair whose relative motion carries the change;
+5. **fit** and **prove** (:mod:`.fit`): an amplitude law per level-dependent mode fitted on the
+   training levels; held-out levels predicted from their drive alone; FRF error per channel
+   and level before and after;
+6. **explain** (:mod:`.explain`): the text and the figures.
+
+It returns a :class:`~exudyn_study.diagnose.schema.Diagnosis` like the other paths; the JSON
+metadata hold the modal table, the trends, the location evidence and the reference check.
+Imports neither exudyn nor ngsolve.
+"""
+
+from __future__ import annotations
+
+import logging
+import sys
+import time
+import warnings
+from collections.abc import Sequence
+from pathlib import Path
+
+import numpy as np
+
+from exudyn_study.diagnose.levels.amplitude import ModalTable, fit_modes_per_level
+from exudyn_study.diagnose.levels.explain import explain_finding, plot_amplitude, plot_overlays
+from exudyn_study.diagnose.levels.fit import ModeLaw, fit_mode_laws, prove
+from exudyn_study.diagnose.levels.frf import LevelFRF, estimate_level_frf, excited_band
+from exudyn_study.diagnose.levels.locate import locate_pair
+from exudyn_study.diagnose.levels.reference import ReferenceModel, check_reference, identify_reference
+from exudyn_study.diagnose.levels.screen import NONLINEAR, ModeTrend, screen_trends
+from exudyn_study.diagnose.levels.settings import LevelSettings
+from exudyn_study.diagnose.schema import Diagnosis, Finding
+from exudyn_study.errors import InputError
+from exudyn_study.recording.types import Recording
+
+__all__ = [
+    "LevelSettings",
+    "LevelFRF",
+    "ReferenceModel",
+    "ModalTable",
+    "ModeTrend",
+    "ModeLaw",
+    "diagnose_levels",
+    "write_level_figures",
+]
+
+log = logging.getLogger(__name__)
+
+
+def _bar(total: int, desc: str, enabled: bool):
+    from tqdm import tqdm
+
+    return tqdm(total=total, desc=desc, file=sys.stderr, disable=not enabled, leave=False)
+
+
+def _drive_point(rec: Recording) -> str | None:
+    d = rec.drive
+    if d.quantity != "force" or d.position_m is None:
+        return None
+    for c in rec.response_channels:
+        if c.position_m is not None and np.allclose(c.position_m, d.position_m, atol=1e-6):
+            return c.name
+    return None
+
+
+def diagnose_levels(
+    recordings: Sequence[Recording],
+    train: Sequence[int],
+    holdout: Sequence[int],
+    *,
+    labels: Sequence[str] | None = None,
+    interfaces: Sequence[tuple[str, str]] | None = None,
+    settings: LevelSettings | None = None,
+    progress: bool = True,
+    state: dict | None = None,
+) -> Diagnosis:
+    """Diagnose a structure from recordings at several drive levels (stages in the module docstring).
+
+    Parameters
+    ----------
+    recordings : sequence of Recording
+        One per drive level, same channels; one drive channel each (force in N, a table
+        acceleration or a shaker voltage), accelerometers as responses.
+    train, holdout : sequence of int
+        Indices into ``recordings`` for fitting and for the proof (disjoint; the lowest level
+        is the reference and should be among ``train``).
+    labels : sequence of str, optional
+        Names of the recordings (default their metadata 'source' or 'level i').
+    interfaces : sequence of (str, str), optional
+        Candidate sensor pairs for the location (default every pair).
+    settings : LevelSettings, optional
+    progress : bool
+        Progress bars on stderr (default True).
+    state : dict, optional
+        If given, filled with the stages' data (for the figures, :func:`write_level_figures`).
+
+    Returns
+    -------
+    Diagnosis
+
+    Raises
+    ------
+    InputError
+        Fewer than 3 levels, overlapping or out-of-range train/holdout indices, channels that
+        differ between recordings, bad FRF settings (see :func:`.frf.estimate_level_frf`), a band
+        outside the data, or a reference model that does not reproduce its own recording.
+    """
+    t0 = time.perf_counter()
+    settings = settings or LevelSettings()
+    recs = list(recordings)
+    n = len(recs)
+    train, holdout = [int(i) for i in train], [int(i) for i in holdout]
+    if n < 3:
+        raise InputError(f"{n} recording(s); a level trend needs at least 3 drive levels")
+    if set(train) & set(holdout) or not train or not holdout or min(train + holdout) < 0 or max(train + holdout) >= n:
+        raise InputError(f"train {train} and holdout {holdout}: expected disjoint, non-empty indices in 0..{n - 1}")
+    labels = list(labels) if labels is not None else [str(r.metadata.get("source", f"level {i}")) for i, r in enumerate(recs)]
+    names0 = recs[0].names
+    for lab, r in zip(labels, recs, strict=True):
+        if r.names != names0:
+            raise InputError(f"recording {lab!r} has channels {list(r.names)}, the first {list(names0)}; "
+                             "record every level with the same channels")
+    # ---- compare: FRFs per level, band, reference model and its self-check
+    bar = _bar(n, "FRFs per level", progress)
+    frfs = []
+    for lab, r in zip(labels, recs, strict=True):
+        frfs.append(estimate_level_frf(r, lab, settings))
+        bar.update(1)
+    bar.close()
+    ref_i = int(np.argmin([f.level for f in frfs]))
+    ref = frfs[ref_i]
+    band = excited_band(ref, settings.band_hz)
+    dp = _drive_point(recs[ref_i])
+    model = identify_reference(ref, band, settings, drive_point=dp)
+    check_reference(model, ref)
+    from exudyn_study.identify.resolution import resolution_warnings
+
+    res_msgs = resolution_warnings(model.frequency_hz, model.damping_ratio, ref.resolution_hz,
+                                   duration_s=recs[ref_i].duration_s, min_lines=settings.min_lines)
+    for m in res_msgs:
+        warnings.warn(m, stacklevel=2)
+    # ---- amplitude-dependent modal parameters, screen, locate
+    bar = _bar(n, "modal parameters per level", progress)
+    table = fit_modes_per_level(model, frfs, progress=bar.update)
+    bar.close()
+    trends = screen_trends(table, settings)
+    pair, evidence = locate_pair(table, trends, ref.channels, settings, interfaces)
+    meta = _metadata(labels, frfs, ref_i, band, model, table, trends, evidence, res_msgs, train, holdout)
+    if state is not None:
+        state.update(frfs=frfs, model=model, table=table, trends=trends, pair=pair, labels=labels,
+                     train=train, holdout=holdout)
+    nonlin = [t for t in trends if t.outcome in NONLINEAR]
+    if not nonlin:
+        mis = [t for t in trends if t.outcome == "linear_mismodelled"]
+        meta["wall_time_s"] = time.perf_counter() - t0
+        if not mis:
+            meta["summary"] = ("no level dependence: every mode keeps its frequency and damping across the levels "
+                               "within their uncertainty, and the reference model reproduces its recording")
+            return Diagnosis(False, (), (), meta)
+        meta["summary"] = "linear but mis-modelled: modes scatter between levels without a trend"
+        un = {"location": {"sensors": list(ref.channels)}, "band_hz": list(band), "level_dependent": False,
+              "explanation": "modes " + ", ".join(f"{t.mode} ({t.frequency_hz:.4g} Hz)" for t in mis)
+              + " change between levels beyond their uncertainty but not with the level: a linear effect the "
+              "reference model does not hold (time variance, temperature, a changed set-up)"}
+        return Diagnosis(True, (), (un,), meta)
+    # ---- fit and prove
+    counts = {}
+    for t in nonlin:
+        counts[t.outcome] = counts.get(t.outcome, 0) + abs(t.frequency_z) + abs(t.damping_z)
+    physics = max(counts, key=counts.get)
+    laws = fit_mode_laws(table, trends, train)
+    ch_of_mode = [list(model.channels).index(c) for c in table.amplitude_channel]
+    proof = prove(model, laws, frfs, ch_of_mode)
+    if state is not None:
+        state.update(proof=proof, laws=laws, physics=physics)
+    ho_labels, tr_labels = [labels[i] for i in holdout], [labels[i] for i in train]
+    fit = {
+        "train_before": float(np.mean([proof[k]["mean_before"] for k in tr_labels])),
+        "train_after": float(np.mean([proof[k]["mean_after"] for k in tr_labels])),
+        "holdout_before": float(np.mean([proof[k]["mean_before"] for k in ho_labels])),
+        "holdout_after": float(np.mean([proof[k]["mean_after"] for k in ho_labels])),
+        "metric": (f"relative FRF error ||H_model - H_meas|| / ||H_meas|| in {band[0]:.4g}-{band[1]:.4g} Hz per "
+                   "channel, mean over channels; held-out levels predicted from their drive alone"),
+        "per_level": {k: {"before": v["before"], "after": v["after"], "mean_before": v["mean_before"],
+                          "mean_after": v["mean_after"], "held_out": k in ho_labels,
+                          "predicted_amplitude": v["amplitude"]} for k, v in proof.items()},
+    }
+    params = {}
+    for law in laws:
+        for name, (v, s, u) in law.params.items():
+            params[f"mode{law.mode}_{name}"] = {"value": float(v), "unit": u or "-",
+                                                "std": float(s) if np.isfinite(s) else None}
+    flags = []
+    worse = [k for k in ho_labels if proof[k]["mean_after"] >= proof[k]["mean_before"]]
+    if worse:
+        flags.append(f"the fitted model does not improve the held-out level(s) {', '.join(worse)}")
+    flags.extend(model.degenerate)
+    location = {"sensors": list(pair) if pair else [], "interface": f"{pair[0]}-{pair[1]}" if pair else None}
+    fmodes = [t for t in trends if t.outcome in NONLINEAR]
+    f_lo = min(t.frequency_hz for t in fmodes)
+    f_hi = max(t.frequency_hz for t in fmodes)
+    text = explain_finding(physics, trends, pair, proof, ho_labels)
+    finding = Finding(physics, location, (float(f_lo), float(f_hi)), True, text, params, fit, tuple(flags))
+    meta["summary"] = f"{physics}" + (f" between {pair[0]} and {pair[1]}" if pair else " (not located)")
+    meta["wall_time_s"] = time.perf_counter() - t0
+    return Diagnosis(True, (finding,), (), meta)
+
+
+def _metadata(labels, frfs: list[LevelFRF], ref_i, band, model: ReferenceModel, table: ModalTable, trends,
+              evidence, res_msgs, train, holdout) -> dict:
+    ref = frfs[ref_i]
+    unit = f"{ref.response_unit}/{ref.drive_unit}"
+    return {
+        "path": "levels",
+        "model": f"modal:{labels[ref_i]}",
+        "reference": labels[ref_i],
+        "train": [labels[i] for i in train],
+        "holdout": [labels[i] for i in holdout],
+        "levels": {lab: f.level for lab, f in zip(labels, frfs, strict=True)},
+        "level_unit": ref.drive_unit,
+        "frf_unit": unit,
+        "excitation": ref.excitation,
+        "resolution_hz": ref.resolution_hz,
+        "periods_averaged": ref.n_periods if ref.excitation == "periodic" else None,
+        "band_hz": list(band),
+        "distortion_estimated": ref.distortion is not None,
+        "resolution_warnings": list(res_msgs),
+        "reference_model": {
+            "modes": [{"frequency_hz": float(f), "damping_ratio": float(z)}
+                      for f, z in zip(model.frequency_hz, model.damping_ratio, strict=True)],
+            "check": model.check,
+            "modal_mass_kg": None if model.modal_mass_kg is None else
+            [None if not np.isfinite(m) else float(m) for m in model.modal_mass_kg],
+            "degenerate_masses": list(model.degenerate),
+        },
+        "modal_table": table.rows(),
+        "trends": [t.__dict__ for t in trends],
+        "location_evidence": evidence,
+    }
+
+
+def write_level_figures(state: dict, directory: str | Path) -> list[Path]:
+    """Write the amplitude plot and the FRF overlays of a :func:`diagnose_levels` run (``state``) into a directory."""
+    d = Path(directory)
+    d.mkdir(parents=True, exist_ok=True)
+    out = [plot_amplitude(state["table"], state["trends"], d / "modal_vs_amplitude.png")]
+    if "proof" in state:
+        frf = state["frfs"][0]
+        show = list(state["pair"]) if state["pair"] else list(frf.channels)
+        labs = [state["labels"][i] for i in sorted(set(state["train"]) | set(state["holdout"]))]
+        nl = [law.mode - 1 for law in state["laws"]]
+        f = state["model"].frequency_hz
+        lo = max(f[min(nl)] * 0.9, state["model"].band_hz[0]) if nl else None
+        hi = min(f[max(nl)] * 1.1, state["model"].band_hz[1]) if nl else None
+        unit = f"{frf.response_unit}/{frf.drive_unit}"
+        out.append(plot_overlays(state["proof"], labs, list(frf.channels), show, unit, d / "frf_overlays.png",
+                                 (lo, hi) if nl else None))
+    return out

@@ -1,0 +1,194 @@
+"""Amplitude-dependent modal parameters: every mode's frequency, damping and amplitude at every level.
+
+For each level and each mode of the reference model, the mode's pole and residues are
+re-fitted around the mode (``f_r`` +- 3 half-power bandwidths, at least +-5 lines) with the
+other modes held at the reference and a complex offset per channel taking up their
+level-dependent remainder: variable projection (residues and offsets linear, the pole
+nonlinear), every line weighted by the inverse of its noise and distortion level. The
+standard deviations come from the Jacobian at the optimum, scaled by the fit's reduced
+chi-square when above 1. The mode's *amplitude* at a level is its rms acceleration at the
+channel where the reference mode is largest, ``sqrt(sum_k |R_c / (jw_k - p) + c.c.|^2 |U_k|^2 / 2)``,
+computed from the drive's spectrum, so that it can be predicted for a level from its drive
+alone (the fit stage does that for held-out levels).
+"""
+
+from __future__ import annotations
+
+from dataclasses import dataclass
+
+import numpy as np
+import scipy.optimize
+
+from exudyn_study.diagnose.levels.frf import LevelFRF
+from exudyn_study.diagnose.levels.reference import ReferenceModel, mode_term, synthesise
+
+__all__ = ["ModalTable", "fit_modes_per_level", "mode_amplitude", "mode_window"]
+
+
+@dataclass(frozen=True, eq=False)
+class ModalTable:
+    """Modal parameters per level, arrays of shape (n_levels, n_modes) unless noted.
+
+    Attributes
+    ----------
+    labels : tuple of str
+    levels : ndarray, shape (n_levels,)
+        Drive rms per level (drive unit).
+    frequency_hz, frequency_std_hz, damping_ratio, damping_std : ndarray
+    amplitude, amplitude_unit
+        The mode's rms response at ``amplitude_channel[r]``.
+    amplitude_channel : tuple of str, length n_modes
+    residues, residue_std : ndarray, shape (n_levels, n_out, n_modes)
+    chi2 : ndarray
+        Reduced chi-square of each local fit (about 1 when the fit is within the noise).
+    """
+
+    labels: tuple[str, ...]
+    levels: np.ndarray
+    frequency_hz: np.ndarray
+    frequency_std_hz: np.ndarray
+    damping_ratio: np.ndarray
+    damping_std: np.ndarray
+    amplitude: np.ndarray
+    amplitude_unit: str
+    amplitude_channel: tuple[str, ...]
+    residues: np.ndarray
+    residue_std: np.ndarray
+    chi2: np.ndarray
+
+    def rows(self) -> list[dict]:
+        """The table as JSON rows (one per level and mode)."""
+        out = []
+        for i, lab in enumerate(self.labels):
+            for r in range(self.frequency_hz.shape[1]):
+                out.append({
+                    "recording": lab,
+                    "level": float(self.levels[i]),
+                    "mode": r + 1,
+                    "frequency_hz": float(self.frequency_hz[i, r]),
+                    "frequency_std_hz": float(self.frequency_std_hz[i, r]),
+                    "damping_ratio": float(self.damping_ratio[i, r]),
+                    "damping_std": float(self.damping_std[i, r]),
+                    "amplitude": float(self.amplitude[i, r]),
+                    "amplitude_unit": self.amplitude_unit,
+                    "amplitude_channel": self.amplitude_channel[r],
+                    "reduced_chi2": float(self.chi2[i, r]),
+                })
+        return out
+
+
+def mode_window(model: ReferenceModel, r: int, freq_hz: np.ndarray) -> np.ndarray:
+    """Lines around mode ``r``: +-3 half-power bandwidths (at least +-5 lines), not past the neighbours."""
+    f = model.frequency_hz
+    z = model.damping_ratio
+    step = float(np.median(np.diff(freq_hz)))
+    half = max(3.0 * 2.0 * z[r] * f[r], 5.0 * step)
+    lo, hi = f[r] - half, f[r] + half
+    if r > 0:
+        lo = max(lo, 0.5 * (f[r - 1] + f[r]))
+    if r < f.size - 1:
+        hi = min(hi, 0.5 * (f[r] + f[r + 1]))
+    m = (freq_hz >= lo) & (freq_hz <= hi)
+    if m.sum() < 7:  # too close to a neighbour: the nearest 7 lines
+        m = np.zeros(freq_hz.size, bool)
+        m[np.argsort(np.abs(freq_hz - f[r]))[:7]] = True
+    return m
+
+
+def _basis(pole: complex, jw: np.ndarray) -> np.ndarray:
+    """Real-parameter basis (Re R, Im R, Re a, Im a) as complex columns, shape (n_freq, 4)."""
+    a = 1.0 / (jw - pole)
+    b = 1.0 / (jw - np.conj(pole))
+    return np.stack([a + b, 1j * a - 1j * b, np.ones_like(jw), 1j * np.ones_like(jw)], axis=1)
+
+
+def _solve(pole, jw, h, w):
+    """Weighted LS of the residue and offset for every channel; returns (coef (n_out, 4), wres, cov list)."""
+    bas = _basis(pole, jw)
+    res, coefs, covs = [], [], []
+    for c in range(h.shape[0]):
+        a = bas * w[c][:, None]
+        a_r = np.concatenate([a.real, a.imag])
+        b = h[c] * w[c]
+        b_r = np.concatenate([b.real, b.imag])
+        x, *_ = np.linalg.lstsq(a_r, b_r, rcond=None)
+        coefs.append(x)
+        res.append(b_r - a_r @ x)
+        covs.append(np.linalg.pinv(a_r.T @ a_r))
+    return np.array(coefs), np.concatenate(res), covs
+
+
+def _pole(theta) -> complex:
+    f, z = theta
+    w = 2 * np.pi * f
+    return complex(-z * w, w * np.sqrt(max(1 - z * z, 1e-12)))
+
+
+def fit_mode(model: ReferenceModel, r: int, frf: LevelFRF):
+    """Refit mode ``r`` on one level; returns (f, f_std, zeta, zeta_std, residues, residue_std, chi2)."""
+    m = mode_window(model, r, frf.freq_hz)
+    f = frf.freq_hz[m]
+    jw = 2j * np.pi * f
+    others = synthesise(model, f) - mode_term(model.residues[:, r], model.poles[r], f)
+    h = frf.H[:, m] - others
+    w = 1.0 / np.maximum(frf.total_sigma[:, m], 1e-12 * np.abs(frf.H[:, m]).max())
+    theta0 = np.array([model.frequency_hz[r], max(model.damping_ratio[r], 1e-4)])
+    scale = np.array([theta0[0] * 1e-3, theta0[1] * 0.1])
+
+    def fun(x):
+        return _solve(_pole(theta0 + x * scale), jw, h, w)[1]
+
+    sol = scipy.optimize.least_squares(fun, np.zeros(2), method="lm", x_scale=1.0)
+    theta = theta0 + sol.x * scale
+    coef, resid, covs = _solve(_pole(theta), jw, h, w)
+    dof = max(resid.size - 2 - 4 * h.shape[0], 1)
+    chi2 = float(resid @ resid / dof)
+    s2 = max(chi2, 1.0)
+    jac = sol.jac / scale
+    try:
+        cov = np.linalg.inv(jac.T @ jac) * s2
+        std = np.sqrt(np.maximum(np.diag(cov), 0.0))
+    except np.linalg.LinAlgError:
+        std = np.array([np.inf, np.inf])
+    residues = coef[:, 0] + 1j * coef[:, 1]
+    rstd = np.array([np.sqrt(max(cv[0, 0] + cv[1, 1], 0.0) * s2) for cv in covs])
+    return theta[0], std[0], theta[1], std[1], residues, rstd, chi2
+
+
+def mode_amplitude(residue: complex, pole: complex, freq_hz: np.ndarray, u: np.ndarray) -> float:
+    """Rms response of one mode at one channel driven by line amplitudes ``u`` (see module docstring)."""
+    t = mode_term(np.array([residue]), pole, freq_hz)[0]
+    return float(np.sqrt(0.5 * np.sum(np.abs(t * u) ** 2)))
+
+
+def fit_modes_per_level(model: ReferenceModel, frfs: list[LevelFRF], progress=None) -> ModalTable:
+    """Frequency, damping, residues and amplitude of every reference mode at every level.
+
+    Parameters
+    ----------
+    model : ReferenceModel
+    frfs : list of LevelFRF
+        One per level (any order; the table keeps it).
+    progress : callable(int), optional
+        Called with 1 after each level.
+
+    Returns
+    -------
+    ModalTable
+    """
+    nl, nm, no = len(frfs), model.poles.size, model.residues.shape[0]
+    fr, fs_, ze, zs, amp, chi = (np.zeros((nl, nm)) for _ in range(6))
+    res = np.zeros((nl, no, nm), complex)
+    rstd = np.zeros((nl, no, nm))
+    ch = np.argmax(np.abs(model.residues), axis=0)
+    for i, frf in enumerate(frfs):
+        inb = (frf.freq_hz >= model.band_hz[0]) & (frf.freq_hz <= model.band_hz[1])
+        sub = frf.select(inb)
+        for r in range(nm):
+            fr[i, r], fs_[i, r], ze[i, r], zs[i, r], res[i, :, r], rstd[i, :, r], chi[i, r] = fit_mode(model, r, sub)
+            amp[i, r] = mode_amplitude(model.residues[ch[r], r], _pole((fr[i, r], ze[i, r])), frf.freq_hz, frf.U)
+        if progress is not None:
+            progress(1)
+    unit = frfs[0].response_unit
+    return ModalTable(tuple(f.label for f in frfs), np.array([f.level for f in frfs]), fr, fs_, ze, zs, amp, unit,
+                      tuple(model.channels[c] for c in ch), res, rstd, chi)
