@@ -181,7 +181,7 @@ def truth_modes(tw: Twin, delta: np.ndarray, law, period: int) -> tuple[np.ndarr
 
     The slider force is replayed on the simulated joint motion ``delta`` (whole periods after
     the first); per mode the ratio of the force's and the motion's spectra over the excited
-    lines within the mode's half-power band gives the element's equivalent complex stiffness at
+    lines within +-3 half-power bandwidths of the mode (the window follows the mode as it moves) gives the element's equivalent complex stiffness at
     that mode, which replaces the element in the linear structure's eigenproblem.
     """
     n_per = delta.size // period
@@ -201,14 +201,17 @@ def truth_modes(tw: Twin, delta: np.ndarray, law, period: int) -> tuple[np.ndarr
     out_f, out_z = np.zeros(f_lin.size), np.zeros(f_lin.size)
     minv = np.linalg.inv(m)
     for mode, f0 in enumerate(f_lin):
-        sel = (np.abs(f - f0) <= max(3 * tw.damping_ratio * f0, 2 * f[1])) & (np.abs(fd) > 0)
-        w = np.abs(fd[sel]) ** 2
-        dk = np.sum(fr[sel] * np.conj(fd[sel])) / np.sum(w) if w.sum() > 0 else 0.0
-        kc = k + dk * np.outer(e, e)
-        a = np.block([[np.zeros_like(m), np.eye(tw.n_masses)], [-minv @ kc, -minv @ c]])
-        lam = np.linalg.eigvals(a)
-        lam = lam[lam.imag > 0]
-        j = int(np.argmin(np.abs(np.abs(lam) / (2 * np.pi) - f0)))
-        out_f[mode] = np.abs(lam[j]) / (2 * np.pi)
+        fc = f0
+        for _ in range(3):  # the window follows the mode as it moves with the element's stiffness
+            sel = (np.abs(f - fc) <= max(3 * tw.damping_ratio * fc, 2 * f[1])) & (np.abs(fd) > 0)
+            w = np.abs(fd[sel]) ** 2
+            dk = np.sum(fr[sel] * np.conj(fd[sel])) / np.sum(w) if w.sum() > 0 else 0.0
+            kc = k + dk * np.outer(e, e)
+            a = np.block([[np.zeros_like(m), np.eye(tw.n_masses)], [-minv @ kc, -minv @ c]])
+            lam = np.linalg.eigvals(a)
+            lam = lam[lam.imag > 0]
+            j = int(np.argmin(np.abs(np.abs(lam) / (2 * np.pi) - fc)))
+            fc = np.abs(lam[j]) / (2 * np.pi)
+        out_f[mode] = fc
         out_z[mode] = -lam[j].real / np.abs(lam[j])
     return out_f, out_z

@@ -35,7 +35,7 @@ import numpy as np
 
 from exudyn_study.diagnose.levels.amplitude import ModalTable, fit_modes_per_level
 from exudyn_study.diagnose.levels.explain import explain_finding, plot_amplitude, plot_overlays
-from exudyn_study.diagnose.levels.fit import ModeLaw, fit_mode_laws, prove
+from exudyn_study.diagnose.levels.fit import JointLaw, fit_joint_law, prove, scaled_coupling
 from exudyn_study.diagnose.levels.frf import LevelFRF, estimate_level_frf, excited_band
 from exudyn_study.diagnose.levels.locate import locate_pair
 from exudyn_study.diagnose.levels.reference import ReferenceModel, check_reference, identify_reference
@@ -51,7 +51,7 @@ __all__ = [
     "ReferenceModel",
     "ModalTable",
     "ModeTrend",
-    "ModeLaw",
+    "JointLaw",
     "diagnose_levels",
     "write_level_figures",
 ]
@@ -180,11 +180,12 @@ def diagnose_levels(
     for t in nonlin:
         counts[t.outcome] = counts.get(t.outcome, 0) + abs(t.frequency_z) + abs(t.damping_z)
     physics = max(counts, key=counts.get)
-    laws = fit_mode_laws(table, trends, train)
-    ch_of_mode = [list(model.channels).index(c) for c in table.amplitude_channel]
-    proof = prove(model, laws, frfs, ch_of_mode)
+    fit_pair = pair or tuple(evidence[0]["pair"])
+    g = scaled_coupling(model, fit_pair, dp) if dp is not None else None
+    law = fit_joint_law(table, trends, physics, fit_pair, frfs, model, train, g)
+    proof = prove(model, law, frfs)
     if state is not None:
-        state.update(proof=proof, laws=laws, physics=physics)
+        state.update(proof=proof, law=law, physics=physics)
     ho_labels, tr_labels = [labels[i] for i in holdout], [labels[i] for i in train]
     fit = {
         "train_before": float(np.mean([proof[k]["mean_before"] for k in tr_labels])),
@@ -195,14 +196,20 @@ def diagnose_levels(
                    "channel, mean over channels; held-out levels predicted from their drive alone"),
         "per_level": {k: {"before": v["before"], "after": v["after"], "mean_before": v["mean_before"],
                           "mean_after": v["mean_after"], "held_out": k in ho_labels,
-                          "predicted_amplitude": v["amplitude"]} for k, v in proof.items()},
+                          "relative_displacement_predicted_m": v["sigma_predicted_m"],
+                          "relative_displacement_measured_m": v["sigma_measured_m"]} for k, v in proof.items()},
     }
-    params = {}
-    for law in laws:
-        for name, (v, s, u) in law.params.items():
-            params[f"mode{law.mode}_{name}"] = {"value": float(v), "unit": u or "-",
-                                                "std": float(s) if np.isfinite(s) else None}
+    params = {k: {"value": float(v["value"]), "unit": v["unit"],
+                  "std": float(v["std"]) if np.isfinite(v["std"]) else None} for k, v in law.parameters.items()}
+    meta["joint_law"] = {
+        "kind": law.kind, "pair": list(law.pair), "shape": law.shape,
+        "modes": [{"mode": r + 1, "f0_hz": float(f), "zeta0": float(z), "coupling_rad2_per_s2": float(c)}
+                  for r, f, z, c in zip(law.modes, law.f0_hz, law.zeta0, law.coupling, strict=True)],
+    }
     flags = []
+    if pair is None:
+        flags.append(f"not located: the law is fitted across the best-ranked pair {fit_pair[0]}-{fit_pair[1]}, "
+                     "whose change is not significant")
     worse = [k for k in ho_labels if proof[k]["mean_after"] >= proof[k]["mean_before"]]
     if worse:
         flags.append(f"the fitted model does not improve the held-out level(s) {', '.join(worse)}")
@@ -260,7 +267,7 @@ def write_level_figures(state: dict, directory: str | Path) -> list[Path]:
         frf = state["frfs"][0]
         show = list(state["pair"]) if state["pair"] else list(frf.channels)
         labs = [state["labels"][i] for i in sorted(set(state["train"]) | set(state["holdout"]))]
-        nl = [law.mode - 1 for law in state["laws"]]
+        nl = list(state["law"].modes)
         f = state["model"].frequency_hz
         lo = max(f[min(nl)] * 0.9, state["model"].band_hz[0]) if nl else None
         hi = min(f[max(nl)] * 1.1, state["model"].band_hz[1]) if nl else None

@@ -14,7 +14,7 @@ alone (the fit stage does that for held-out levels).
 
 from __future__ import annotations
 
-from dataclasses import dataclass
+from dataclasses import dataclass, replace
 
 import numpy as np
 import scipy.optimize
@@ -184,8 +184,18 @@ def fit_modes_per_level(model: ReferenceModel, frfs: list[LevelFRF], progress=No
     for i, frf in enumerate(frfs):
         inb = (frf.freq_hz >= model.band_hz[0]) & (frf.freq_hz <= model.band_hz[1])
         sub = frf.select(inb)
+        cur = model
+        # two sweeps: each mode refitted with its neighbours at their values of this level (a neighbour
+        # that moves with level into the mode's window is then not mistaken for it)
+        for _sweep in range(2):
+            for r in range(nm):
+                fr[i, r], fs_[i, r], ze[i, r], zs[i, r], res[i, :, r], rstd[i, :, r], chi[i, r] = fit_mode(cur, r, sub)
+                poles = cur.poles.copy()
+                poles[r] = _pole((fr[i, r], ze[i, r]))
+                resid = cur.residues.copy()
+                resid[:, r] = res[i, :, r]
+                cur = replace(cur, poles=poles, residues=resid)
         for r in range(nm):
-            fr[i, r], fs_[i, r], ze[i, r], zs[i, r], res[i, :, r], rstd[i, :, r], chi[i, r] = fit_mode(model, r, sub)
             amp[i, r] = mode_amplitude(model.residues[ch[r], r], _pole((fr[i, r], ze[i, r])), frf.freq_hz, frf.U)
         if progress is not None:
             progress(1)

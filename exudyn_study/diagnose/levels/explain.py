@@ -31,8 +31,8 @@ def explain_finding(physics: str, trends: list[ModeTrend], pair, proof: dict, ho
              "level" if pair else "at no single sensor pair (the relative motions do not change significantly)")
     ho = "; ".join(f"{k}: {proof[k]['mean_before']:.3g} -> {proof[k]['mean_after']:.3g}" for k in holdout)
     return (f"The modal parameters change with drive level as {_WORDS.get(physics, physics)}: {modes}. "
-            f"The level dependence sits {where}. An amplitude-dependent modal model (a Jenkins/power law per mode, "
-            f"fitted on the training levels) predicts the held-out levels from their drive alone: relative FRF error "
+            f"The level dependence sits {where}. One joint law across that pair (Jenkins micro-slip or a power-law "
+            f"stiffness, fitted on the training levels) predicts the held-out levels from their drive alone: relative FRF error "
             f"{ho}.")
 
 
@@ -42,6 +42,7 @@ def plot_amplitude(table, trends, path: Path) -> Path:
 
     matplotlib.use("Agg")
     import matplotlib.pyplot as plt
+    import matplotlib.ticker
 
     modes = [t.mode - 1 for t in trends if t.outcome not in ("linear",)] or list(range(len(trends)))
     modes = modes[:6]
@@ -56,6 +57,7 @@ def plot_amplitude(table, trends, path: Path) -> Path:
         ax[1, k].set_xlabel(f"rms amplitude at {table.amplitude_channel[r]} ({table.amplitude_unit})")
         for a_ in ax[:, k]:
             a_.set_xscale("log")
+            a_.xaxis.set_minor_formatter(matplotlib.ticker.NullFormatter())
             a_.grid(True, alpha=0.3)
     ax[0, 0].set_ylabel("frequency (Hz)")
     ax[1, 0].set_ylabel("damping ratio (%)")
