@@ -206,6 +206,19 @@ def diagnose_levels(
         "modes": [{"mode": r + 1, "f0_hz": float(f), "zeta0": float(z), "coupling_rad2_per_s2": float(c)}
                   for r, f, z, c in zip(law.modes, law.f0_hz, law.zeta0, law.coupling, strict=True)],
     }
+    location = {"sensors": list(pair) if pair else [], "interface": f"{pair[0]}-{pair[1]}" if pair else None}
+    fmodes = [t for t in trends if t.outcome in NONLINEAR]
+    mband = (float(min(t.frequency_hz for t in fmodes)), float(max(t.frequency_hz for t in fmodes)))
+    text = explain_finding(physics, trends, pair, proof, ho_labels)
+    meta["wall_time_s"] = time.perf_counter() - t0
+    if not fit["holdout_after"] < fit["holdout_before"]:
+        # a law that does not predict the held-out levels better than the reference explains nothing
+        meta["fit_rejected"] = fit
+        meta["summary"] = f"{physics} in the modal trends, but no joint law predicts the held-out levels"
+        un = {"location": location, "band_hz": list(mband), "level_dependent": True,
+              "explanation": text + " The law does not reduce the held-out error, so it is not taken as an "
+              "explanation."}
+        return Diagnosis(True, (), (un,), meta)
     flags = []
     if pair is None:
         flags.append(f"not located: the law is fitted across the best-ranked pair {fit_pair[0]}-{fit_pair[1]}, "
@@ -214,14 +227,15 @@ def diagnose_levels(
     if worse:
         flags.append(f"the fitted model does not improve the held-out level(s) {', '.join(worse)}")
     flags.extend(model.degenerate)
-    location = {"sensors": list(pair) if pair else [], "interface": f"{pair[0]}-{pair[1]}" if pair else None}
-    fmodes = [t for t in trends if t.outcome in NONLINEAR]
-    f_lo = min(t.frequency_hz for t in fmodes)
-    f_hi = max(t.frequency_hz for t in fmodes)
-    text = explain_finding(physics, trends, pair, proof, ho_labels)
-    finding = Finding(physics, location, (float(f_lo), float(f_hi)), True, text, params, fit, tuple(flags))
+    beyond = [c for c, v in model.check.items() if not v["within_noise"]]
+    if beyond:
+        flags.append(
+            f"the reference model misfits its own recording beyond the noise at {', '.join(beyond)} (relative error "
+            + ", ".join(f"{model.check[c]['relative_error']:.2f}" for c in beyond)
+            + "): the lowest level may itself be nonlinear; the trends are relative to it"
+        )
+    finding = Finding(physics, location, mband, True, text, params, fit, tuple(flags))
     meta["summary"] = f"{physics}" + (f" between {pair[0]} and {pair[1]}" if pair else " (not located)")
-    meta["wall_time_s"] = time.perf_counter() - t0
     return Diagnosis(True, (finding,), (), meta)
 
 

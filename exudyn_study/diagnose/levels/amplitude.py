@@ -20,9 +20,9 @@ import numpy as np
 import scipy.optimize
 
 from exudyn_study.diagnose.levels.frf import LevelFRF
-from exudyn_study.diagnose.levels.reference import ReferenceModel, mode_term, synthesise
+from exudyn_study.diagnose.levels.modal import ReferenceModel, fit_mode, mode_term, pole_of, synthesise
 
-__all__ = ["ModalTable", "fit_modes_per_level", "mode_amplitude", "mode_window"]
+__all__ = ["ModalTable", "fit_modes_per_level", "mode_amplitude"]
 
 
 @dataclass(frozen=True, eq=False)
@@ -77,84 +77,6 @@ class ModalTable:
         return out
 
 
-def mode_window(model: ReferenceModel, r: int, freq_hz: np.ndarray) -> np.ndarray:
-    """Lines around mode ``r``: +-3 half-power bandwidths (at least +-5 lines), not past the neighbours."""
-    f = model.frequency_hz
-    z = model.damping_ratio
-    step = float(np.median(np.diff(freq_hz)))
-    half = max(3.0 * 2.0 * z[r] * f[r], 5.0 * step)
-    lo, hi = f[r] - half, f[r] + half
-    if r > 0:
-        lo = max(lo, 0.5 * (f[r - 1] + f[r]))
-    if r < f.size - 1:
-        hi = min(hi, 0.5 * (f[r] + f[r + 1]))
-    m = (freq_hz >= lo) & (freq_hz <= hi)
-    if m.sum() < 7:  # too close to a neighbour: the nearest 7 lines
-        m = np.zeros(freq_hz.size, bool)
-        m[np.argsort(np.abs(freq_hz - f[r]))[:7]] = True
-    return m
-
-
-def _basis(pole: complex, jw: np.ndarray) -> np.ndarray:
-    """Real-parameter basis (Re R, Im R, Re a, Im a) as complex columns, shape (n_freq, 4)."""
-    a = 1.0 / (jw - pole)
-    b = 1.0 / (jw - np.conj(pole))
-    return np.stack([a + b, 1j * a - 1j * b, np.ones_like(jw), 1j * np.ones_like(jw)], axis=1)
-
-
-def _solve(pole, jw, h, w):
-    """Weighted LS of the residue and offset for every channel; returns (coef (n_out, 4), wres, cov list)."""
-    bas = _basis(pole, jw)
-    res, coefs, covs = [], [], []
-    for c in range(h.shape[0]):
-        a = bas * w[c][:, None]
-        a_r = np.concatenate([a.real, a.imag])
-        b = h[c] * w[c]
-        b_r = np.concatenate([b.real, b.imag])
-        x, *_ = np.linalg.lstsq(a_r, b_r, rcond=None)
-        coefs.append(x)
-        res.append(b_r - a_r @ x)
-        covs.append(np.linalg.pinv(a_r.T @ a_r))
-    return np.array(coefs), np.concatenate(res), covs
-
-
-def _pole(theta) -> complex:
-    f, z = theta
-    w = 2 * np.pi * f
-    return complex(-z * w, w * np.sqrt(max(1 - z * z, 1e-12)))
-
-
-def fit_mode(model: ReferenceModel, r: int, frf: LevelFRF):
-    """Refit mode ``r`` on one level; returns (f, f_std, zeta, zeta_std, residues, residue_std, chi2)."""
-    m = mode_window(model, r, frf.freq_hz)
-    f = frf.freq_hz[m]
-    jw = 2j * np.pi * f
-    others = synthesise(model, f) - mode_term(model.residues[:, r], model.poles[r], f)
-    h = frf.H[:, m] - others
-    w = 1.0 / np.maximum(frf.total_sigma[:, m], 1e-12 * np.abs(frf.H[:, m]).max())
-    theta0 = np.array([model.frequency_hz[r], max(model.damping_ratio[r], 1e-4)])
-    scale = np.array([theta0[0] * 1e-3, theta0[1] * 0.1])
-
-    def fun(x):
-        return _solve(_pole(theta0 + x * scale), jw, h, w)[1]
-
-    sol = scipy.optimize.least_squares(fun, np.zeros(2), method="lm", x_scale=1.0)
-    theta = theta0 + sol.x * scale
-    coef, resid, covs = _solve(_pole(theta), jw, h, w)
-    dof = max(resid.size - 2 - 4 * h.shape[0], 1)
-    chi2 = float(resid @ resid / dof)
-    s2 = max(chi2, 1.0)
-    jac = sol.jac / scale
-    try:
-        cov = np.linalg.inv(jac.T @ jac) * s2
-        std = np.sqrt(np.maximum(np.diag(cov), 0.0))
-    except np.linalg.LinAlgError:
-        std = np.array([np.inf, np.inf])
-    residues = coef[:, 0] + 1j * coef[:, 1]
-    rstd = np.array([np.sqrt(max(cv[0, 0] + cv[1, 1], 0.0) * s2) for cv in covs])
-    return theta[0], std[0], theta[1], std[1], residues, rstd, chi2
-
-
 def mode_amplitude(residue: complex, pole: complex, freq_hz: np.ndarray, u: np.ndarray) -> float:
     """Rms response of one mode at one channel driven by line amplitudes ``u`` (see module docstring)."""
     t = mode_term(np.array([residue]), pole, freq_hz)[0]
@@ -191,12 +113,12 @@ def fit_modes_per_level(model: ReferenceModel, frfs: list[LevelFRF], progress=No
             for r in range(nm):
                 fr[i, r], fs_[i, r], ze[i, r], zs[i, r], res[i, :, r], rstd[i, :, r], chi[i, r] = fit_mode(cur, r, sub)
                 poles = cur.poles.copy()
-                poles[r] = _pole((fr[i, r], ze[i, r]))
+                poles[r] = pole_of((fr[i, r], ze[i, r]))
                 resid = cur.residues.copy()
                 resid[:, r] = res[i, :, r]
                 cur = replace(cur, poles=poles, residues=resid)
         for r in range(nm):
-            amp[i, r] = mode_amplitude(model.residues[ch[r], r], _pole((fr[i, r], ze[i, r])), frf.freq_hz, frf.U)
+            amp[i, r] = mode_amplitude(model.residues[ch[r], r], pole_of((fr[i, r], ze[i, r])), frf.freq_hz, frf.U)
         if progress is not None:
             progress(1)
     unit = frfs[0].response_unit

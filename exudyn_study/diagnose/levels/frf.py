@@ -258,8 +258,8 @@ def estimate_level_frf(rec: Recording, label: str, settings: LevelSettings) -> L
 def excited_band(ref: LevelFRF, requested: tuple[float, float] | None) -> tuple[float, float]:
     """The contiguous excited band of the reference's drive, or the requested one checked against it.
 
-    Random drive: the drive's amplitude per line, smoothed over about 1 % of the lines, above
-    1 % of its 90th percentile, and the longest contiguous run of such lines; periodic drive:
+    Random drive: the drive's amplitude per line, smoothed over about 1 % of the lines, within
+    30 dB of its peak, and the longest contiguous run of such lines; periodic drive:
     the excited lines from the first to the last (gaps of detection lines are part of the band).
 
     Raises
@@ -274,7 +274,7 @@ def excited_band(ref: LevelFRF, requested: tuple[float, float] | None) -> tuple[
         a = np.abs(ref.U)
         w = max(3, f.size // 100)
         s = np.convolve(a, np.ones(w) / w, mode="same")
-        on = s > 0.01 * np.percentile(s, 90)
+        on = s > 10 ** (-30 / 20) * np.max(s)
         # longest contiguous run
         edges = np.flatnonzero(np.diff(np.concatenate([[0], on.astype(int), [0]])))
         runs = edges.reshape(-1, 2)

@@ -2,14 +2,17 @@
 
 A joint that slips (or closes) with amplitude changes the stiffness *across* it, so in the
 modes that change with level the relative motion of the two sensors that straddle the joint
-grows (slip) or shrinks (contact) relative to the rest of the shape. For every mode with a
-level dependence the shape at each level (its residues) is scaled onto the lowest level's
-shape (complex least squares), and for every sensor pair the relative motion
-``d_ij = |psi_i - psi_j|`` is compared between the lowest and the highest level: the score is
-its relative change ``(d_ij,high - d_ij,low) / d_ij,low``, and its z value that change over
-its standard deviation (from the residues' uncertainties). The pair with the largest score
-whose change is significant (z above ``trend_sigma``) is the located interface; the evidence
-per pair, mode and level goes into the JSON.
+grows (slip, softening) or shrinks (contact, hardening) relative to the rest of the shape. For
+every mode with a level dependence the shape at each level (its residues) is scaled onto the
+lowest level's shape (complex least squares), and for every sensor pair the relative motion
+``d_ij = |psi_i - psi_j|`` is followed over the levels: its relative change from the lowest to
+the highest level, estimated from every level by regressing the level's change on the mode's
+own trend (0 at the lowest, 1 at the highest level: the relative motion changes with the amount
+of slip or contact, which the mode's frequency shift measures), inverse-variance weighted, signed so that growth counts for a softening mode
+and shrinking for a hardening one, averaged over the modes with inverse-variance weights (the
+variances from the residues' uncertainties), is the pair's score; its z value is the score over
+its standard deviation. The pair with the highest score is the located interface
+if its z exceeds ``trend_sigma``; the evidence per pair, mode and level goes into the JSON.
 """
 
 from __future__ import annotations
@@ -53,12 +56,11 @@ def locate_pair(table: ModalTable, trends: list[ModeTrend], channels, settings: 
     pairs = [tuple(p) for p in interfaces] if interfaces else list(itertools.combinations(names, 2))
     order = np.argsort(table.levels)
     lo, hi = order[0], order[-1]
-    weight = {r: abs(trends[r].frequency_z) + abs(trends[r].damping_z) for r in modes}
+    sign = {r: -1.0 if trends[r].outcome in ("joint_stiffening", "joint_clearance") else 1.0 for r in modes}
     evidence = []
     for a, b in pairs:
         i, j = names.index(a), names.index(b)
         num = den = 0.0
-        zs = []
         per_mode = []
         for r in modes:
             ref = table.residues[lo, :, r]
@@ -70,17 +72,27 @@ def locate_pair(table: ModalTable, trends: list[ModeTrend], channels, settings: 
                 d.append(abs(v[i] - v[j]))
                 s.append(abs(alpha) * np.hypot(table.residue_std[L, i, r], table.residue_std[L, j, r]))
             d, s = np.array(d), np.array(s)
-            change = (d[hi] - d[lo]) / max(d[lo], 1e-300)
-            sd = np.hypot(s[hi], s[lo]) / max(d[lo], 1e-300)
+            # every level's change from the lowest, regressed on the mode's own trend e (0 at the lowest, 1 at the
+            # highest level; its frequency, or its damping when only that moves): the relative motion changes
+            # with the amount of slip (or contact), which the modal trend measures
+            tr = table.frequency_hz[:, r] if trends[r].outcome != "joint_damping" else table.damping_ratio[:, r]
+            e = (tr - tr[lo]) / (tr[hi] - tr[lo]) if tr[hi] != tr[lo] else np.zeros_like(tr)
+            c = (d - d[lo]) / max(d[lo], 1e-300)
+            sc = np.hypot(s, s[lo]) / max(d[lo], 1e-300)
+            others = np.arange(d.size) != lo
+            wl = e[others] ** 2 / np.maximum(sc[others], 1e-12) ** 2
+            change = float(np.sum(wl * c[others] / np.where(e[others] == 0, 1.0, e[others])) / max(np.sum(wl), 1e-300))
+            sd = float(1.0 / np.sqrt(max(np.sum(wl), 1e-300)))
             z = change / max(sd, 1e-300)
-            num += weight[r] * change
-            den += weight[r]
-            zs.append(z)
+            w_r = 1.0 / max(sd, 1e-12) ** 2
+            num += w_r * sign[r] * change
+            den += w_r
             per_mode.append({"mode": r + 1, "relative_motion": d.tolist(), "std": s.tolist(),
                              "relative_change": float(change), "z": float(z)})
-        evidence.append({"pair": [a, b], "score": float(num / den), "z": float(np.max(np.abs(zs))),
+        score = num / den
+        evidence.append({"pair": [a, b], "score": float(score), "z": float(score * np.sqrt(den)),
                          "modes": per_mode})
-    evidence.sort(key=lambda e: -abs(e["score"]))
+    evidence.sort(key=lambda e: -e["score"])
     best = evidence[0]
-    located = abs(best["score"]) > 0 and best["z"] > settings.trend_sigma
+    located = best["score"] > 0 and best["z"] > settings.trend_sigma
     return (tuple(best["pair"]) if located else None), evidence
