@@ -54,6 +54,7 @@ __all__ = [
     "JointLaw",
     "diagnose_levels",
     "write_level_figures",
+    "write_level_report",
 ]
 
 log = logging.getLogger(__name__)
@@ -145,10 +146,7 @@ def diagnose_levels(
     dp = _drive_point(recs[ref_i])
     model = identify_reference(ref, band, settings, drive_point=dp)
     check_reference(model, ref)
-    from exudyn_study.identify.resolution import resolution_warnings
-
-    res_msgs = resolution_warnings(model.frequency_hz, model.damping_ratio, ref.resolution_hz,
-                                   duration_s=recs[ref_i].duration_s, min_lines=settings.min_lines)
+    res_msgs = _resolution_warnings(model, ref, settings)
     for m in res_msgs:
         warnings.warn(m, stacklevel=2)
     # ---- amplitude-dependent modal parameters, screen, locate
@@ -239,6 +237,22 @@ def diagnose_levels(
     return Diagnosis(True, (finding,), (), meta)
 
 
+def _resolution_warnings(model: ReferenceModel, ref: LevelFRF, settings: LevelSettings) -> list[str]:
+    """One message when modes span fewer than ``min_lines`` lines of their half-power bandwidth."""
+    bw = 2.0 * model.damping_ratio * model.frequency_hz
+    lines = bw / ref.resolution_hz
+    low = np.flatnonzero(lines < settings.min_lines)
+    if not low.size:
+        return []
+    need = settings.min_lines / max(float(np.min(bw[low])), 1e-12)
+    modes = ", ".join(f"{model.frequency_hz[k]:.4g} Hz/{100 * model.damping_ratio[k]:.2f} % ({lines[k]:.1f} lines)"
+                      for k in low)
+    how = (f"a drive period of at least {need:.3g} s" if ref.excitation == "periodic"
+           else f"a record (or --resolution segment) of at least {need:.3g} s")
+    return [f"{low.size} mode(s) span fewer than {settings.min_lines:g} lines of their half-power bandwidth at "
+            f"{ref.resolution_hz:.4g} Hz, so their damping is poorly resolved: {modes}; resolving them needs {how}"]
+
+
 def _metadata(labels, frfs: list[LevelFRF], ref_i, band, model: ReferenceModel, table: ModalTable, trends,
               evidence, res_msgs, train, holdout) -> dict:
     ref = frfs[ref_i]
@@ -289,3 +303,87 @@ def write_level_figures(state: dict, directory: str | Path) -> list[Path]:
         out.append(plot_overlays(state["proof"], labs, list(frf.channels), show, unit, d / "frf_overlays.png",
                                  (lo, hi) if nl else None))
     return out
+
+
+def write_level_report(diagnosis: Diagnosis, state: dict, directory: str | Path) -> Path:
+    """Write ``index.html`` with the modal table, the trends, the location evidence, the proof and the figures.
+
+    Parameters
+    ----------
+    diagnosis : Diagnosis
+        From :func:`diagnose_levels`.
+    state : dict
+        The ``state`` that run filled.
+    directory : str or path-like
+        Created if missing (its parent must exist).
+
+    Returns
+    -------
+    Path
+        The written ``index.html``.
+    """
+    import html
+
+    from exudyn_study.infra.atomic import write_text_atomic
+
+    d = Path(directory)
+    if not d.parent.is_dir():
+        raise InputError(f"report directory {str(d)!r}: parent {str(d.parent)!r} does not exist")
+    figs = write_level_figures(state, d)
+    meta = diagnosis.metadata
+    esc = html.escape
+    rows = "".join(
+        f"<tr><td>{esc(r['recording'])}</td><td>{r['mode']}</td><td>{r['frequency_hz']:.4f} &plusmn; "
+        f"{r['frequency_std_hz']:.4f}</td><td>{100 * r['damping_ratio']:.3f} &plusmn; {100 * r['damping_std']:.3f}</td>"
+        f"<td>{r['amplitude']:.3g} {esc(r['amplitude_unit'])}</td></tr>"
+        for r in meta.get("modal_table", [])
+    )
+    trends = "".join(
+        f"<tr><td>{t['mode']}</td><td>{t['frequency_hz']:.4g}</td><td>{esc(t['outcome'])}</td>"
+        f"<td>{100 * t['frequency_change']:+.2f} % ({t['frequency_z']:+.1f} &sigma;)</td>"
+        f"<td>{100 * t['damping_change']:+.0f} % ({t['damping_z']:+.1f} &sigma;)</td></tr>"
+        for t in meta.get("trends", [])
+    )
+    loc = "".join(f"<tr><td>{esc('-'.join(e['pair']))}</td><td>{e['score']:+.3f}</td><td>{e['z']:+.1f}</td></tr>"
+                  for e in meta.get("location_evidence", []))
+    check = "".join(
+        f"<tr><td>{esc(c)}</td><td>{v['relative_error']:.3f}</td><td>{v['misfit_in_noise_units']:.1f}</td>"
+        f"<td>{'yes' if v['passed'] else 'no'}</td></tr>"
+        for c, v in meta.get("reference_model", {}).get("check", {}).items()
+    )
+    parts = [
+        "<!DOCTYPE html><html><head><meta charset='utf-8'><title>exudyn_study level diagnosis</title>",
+        "<style>body{font-family:sans-serif;max-width:1200px;margin:auto}table{border-collapse:collapse;"
+        "margin:6px 0}td,th{border:1px solid #bbb;padding:2px 7px;font-size:88%}img{max-width:100%}</style>"
+        "</head><body><h1>Level-trend diagnosis</h1>",
+        f"<p><b>{esc(diagnosis.summary)}</b></p>",
+        f"<p>Excitation {esc(str(meta.get('excitation')))}, band {meta['band_hz'][0]:.4g}-{meta['band_hz'][1]:.4g} "
+        f"Hz, resolution {meta['resolution_hz']:.4g} Hz, FRFs in {esc(meta['frf_unit'])}; reference "
+        f"{esc(meta['reference'])}.</p>",
+    ]
+    for f in diagnosis.findings:
+        parts.append(f"<h2>Finding: {esc(f.physics)}</h2><p>{esc(f.explanation)}</p>")
+        if f.flags:
+            parts.append("<ul>" + "".join(f"<li>{esc(x)}</li>" for x in f.flags) + "</ul>")
+        prm = "".join(f"<tr><td>{esc(k)}</td><td>{v['value']:.4g}</td><td>{esc(v['unit'])}</td>"
+                      f"<td>{'-' if v['std'] is None else format(v['std'], '.2g')}</td></tr>"
+                      for k, v in f.parameters.items())
+        parts.append(f"<table><tr><th>parameter</th><th>value</th><th>unit</th><th>std</th></tr>{prm}</table>")
+        lv = "".join(f"<tr><td>{esc(k)}</td><td>{'held out' if v['held_out'] else 'train'}</td>"
+                     f"<td>{v['mean_before']:.3f}</td><td>{v['mean_after']:.3f}</td></tr>"
+                     for k, v in f.fit["per_level"].items())
+        parts.append("<h3>Proof: relative FRF error per level (mean over channels)</h3><table><tr><th>level</th>"
+                     f"<th>role</th><th>reference model</th><th>with the joint law</th></tr>{lv}</table>")
+    for u in diagnosis.unexplained:
+        parts.append(f"<h2>Unexplained</h2><p>{esc(u['explanation'])}</p>")
+    parts += [
+        "<h2>Reference model check</h2><table><tr><th>channel</th><th>relative error</th>"
+        f"<th>misfit / noise</th><th>passed</th></tr>{check}</table>",
+        f"<h2>Level trends</h2><table><tr><th>mode</th><th>f (Hz)</th><th>outcome</th><th>frequency</th>"
+        f"<th>damping</th></tr>{trends}</table>",
+        f"<h2>Location evidence</h2><table><tr><th>pair</th><th>score</th><th>z</th></tr>{loc}</table>",
+    ]
+    parts += [f"<h2>{esc(p.stem.replace('_', ' '))}</h2><img src='{p.name}'>" for p in figs]
+    parts.append("<h2>Modal parameters per level</h2><table><tr><th>recording</th><th>mode</th><th>f (Hz)</th>"
+                 f"<th>damping (%)</th><th>amplitude</th></tr>{rows}</table></body></html>")
+    return write_text_atomic(d / "index.html", "".join(parts), "diagnosis report")

@@ -77,6 +77,10 @@ def locate_pair(table: ModalTable, trends: list[ModeTrend], channels, settings: 
             # with the amount of slip (or contact), which the modal trend measures
             tr = table.frequency_hz[:, r] if trends[r].outcome != "joint_damping" else table.damping_ratio[:, r]
             e = (tr - tr[lo]) / (tr[hi] - tr[lo]) if tr[hi] != tr[lo] else np.zeros_like(tr)
+            if d[lo] <= 1e-9 * np.max(np.abs(ref)):  # two sensors moving together: no relative motion to follow
+                per_mode.append({"mode": r + 1, "relative_motion": d.tolist(), "std": s.tolist(),
+                                 "relative_change": 0.0, "z": 0.0})
+                continue
             c = (d - d[lo]) / max(d[lo], 1e-300)
             sc = np.hypot(s, s[lo]) / max(d[lo], 1e-300)
             others = np.arange(d.size) != lo
@@ -89,7 +93,7 @@ def locate_pair(table: ModalTable, trends: list[ModeTrend], channels, settings: 
             den += w_r
             per_mode.append({"mode": r + 1, "relative_motion": d.tolist(), "std": s.tolist(),
                              "relative_change": float(change), "z": float(z)})
-        score = num / den
+        score = num / den if den > 0 else 0.0
         evidence.append({"pair": [a, b], "score": float(score), "z": float(score * np.sqrt(den)),
                          "modes": per_mode})
     evidence.sort(key=lambda e: -e["score"])
