@@ -87,7 +87,7 @@ def configure(parser: argparse.ArgumentParser) -> None:
                         help="levels: period of a periodic drive in s (default: detected from the drive)")
     parser.add_argument("--excitation", choices=("auto", "periodic", "random"), default="auto",
                         help="levels: FRF estimate for a periodic (multisine) or random drive (default auto)")
-    parser.add_argument("--no-progress", action="store_true", help="no progress bars or stage lines on stderr")
+    parser.add_argument("--no-progress", action="store_true", help="no progress bars or stage lines (stderr)")
 
 
 def _parse_model(text: str):
@@ -211,7 +211,7 @@ def run(args: argparse.Namespace) -> int:
 
 
 def _run_levels(args, train, holdout, interfaces) -> int:
-    """The level-trend path: every recording is a level; the JSON (and report) written after it finished."""
+    """Run the level-trend path: every recording is a level; JSON (and report) written when finished."""
     from exudyn_study.diagnose.levels import LevelSettings, diagnose_levels, write_level_report
 
     settings = LevelSettings(
@@ -239,5 +239,6 @@ def _run_levels(args, train, holdout, interfaces) -> int:
     print(f"diagnosis: {diagnosis.summary} -> {args.json}")
     for f in diagnosis.findings:
         where = f.location.get("interface") or "not located"
-        print(f"  {f.physics} at {where}: held-out error {f.fit['holdout_before']:.3g} -> {f.fit['holdout_after']:.3g}")
+        before, after = f.fit["holdout_before"], f.fit["holdout_after"]
+        print(f"  {f.physics} at {where}: held-out error {before:.3g} -> {after:.3g}")
     return 0

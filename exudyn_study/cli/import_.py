@@ -25,13 +25,23 @@ __all__ = ["configure", "run"]
 def configure(parser: argparse.ArgumentParser) -> None:
     """Add the ``import`` arguments to ``parser``."""
     parser.add_argument("file", metavar="FILE", help="delimited time data (.csv, .tsv, .txt)")
-    parser.add_argument("--column", action="append", required=True, metavar="MAP",
-                        help="NAME=COLUMN:QUANTITY:UNIT[:DIRECTION[:ROLE]] (COLUMN: header or 0-based "
-                             "index; ROLE 'drive' for the excitation), once per channel")
+    parser.add_argument(
+        "--column",
+        action="append",
+        required=True,
+        metavar="MAP",
+        help="NAME=COLUMN:QUANTITY:UNIT[:DIRECTION[:ROLE]] (COLUMN: header or 0-based "
+        "index; ROLE 'drive' for the excitation), once per channel",
+    )
     parser.add_argument("--rate", type=float, metavar="HZ", help="sampling rate in Hz (or --time-column)")
     parser.add_argument("--time-column", metavar="COLUMN", help="column of the sample times in s")
-    parser.add_argument("--position", action="append", default=[], metavar="NAME=X,Y,Z",
-                        help="a channel's position in m (the drive-point accelerometer at the force's)")
+    parser.add_argument(
+        "--position",
+        action="append",
+        default=[],
+        metavar="NAME=X,Y,Z",
+        help="a channel's position in m (the drive-point accelerometer at the force's)",
+    )
     parser.add_argument("--delimiter", metavar="SEP", help="column separator (default from the suffix)")
     parser.add_argument("--out", required=True, metavar="OUT", help="recording to write (.h5 or .uff)")
 

@@ -70,8 +70,10 @@ class Twin:
 
     def __post_init__(self) -> None:
         if not (3 <= self.drive <= self.n_masses and 1 <= self.joint < self.n_masses):
-            raise InputError(f"Twin: drive {self.drive} and joint {self.joint} must lie on the chain of "
-                             f"{self.n_masses} masses")
+            raise InputError(
+                f"Twin: drive {self.drive} and joint {self.joint} must lie on the chain of "
+                f"{self.n_masses} masses"
+            )
 
 
 def _matrices(tw: Twin):
@@ -103,8 +105,18 @@ def _linear_system(tw: Twin):
     for s, i in enumerate(sens):
         smap[s, i + 1] = 1.0
     z = np.zeros(n)
-    return LinearSystem(mass=m, damping=c, stiffness=k, nullspace=null, drive_shape=np.zeros(n + 1), b0=-e, b1=z,
-                        b2=z.copy(), sensor_map=smap, sensor_names=("DP", "A", "B"))
+    return LinearSystem(
+        mass=m,
+        damping=c,
+        stiffness=k,
+        nullspace=null,
+        drive_shape=np.zeros(n + 1),
+        b0=-e,
+        b1=z,
+        b2=z.copy(),
+        sensor_map=smap,
+        sensor_names=("DP", "A", "B"),
+    )
 
 
 def _multisine(tw: Twin, seed: int):
@@ -123,8 +135,9 @@ def _multisine(tw: Twin, seed: int):
     return x / np.std(x)
 
 
-def simulate_twin(levels_n, *, twin: Twin | None = None, periods: int = 9, seed: int = 0,
-                  return_truth: bool = False):
+def simulate_twin(
+    levels_n, *, twin: Twin | None = None, periods: int = 9, seed: int = 0, return_truth: bool = False
+):
     """Simulate the twin's shaker test at several force levels (rms N) into recordings.
 
     Parameters
@@ -156,7 +169,11 @@ def simulate_twin(levels_n, *, twin: Twin | None = None, periods: int = 9, seed:
     base = _multisine(tw, seed)
     p = base.size
     fs = tw.sample_rate_hz
-    pos = {"DP": (0.1 * tw.drive, 0.0, 0.0), "A": (0.1 * tw.joint, 0.0, 0.0), "B": (0.1 * (tw.joint + 1), 0.0, 0.0)}
+    pos = {
+        "DP": (0.1 * tw.drive, 0.0, 0.0),
+        "A": (0.1 * tw.joint, 0.0, 0.0),
+        "B": (0.1 * (tw.joint + 1), 0.0, 0.0),
+    }
     recs, truths = [], []
     for i, level in enumerate(levels_n):
         rng = np.random.default_rng(1000 + seed + i)
@@ -167,22 +184,29 @@ def simulate_twin(levels_n, *, twin: Twin | None = None, periods: int = 9, seed:
         acc, delta = simulate_local_nonlinear(lin, drive, gather, [law], substeps=4, return_deltas=True)
         acc = acc + tw.noise * np.std(acc, axis=1, keepdims=True) * rng.standard_normal(acc.shape)
         u_meas = u + tw.noise * np.std(u) * rng.standard_normal(u.size)
-        chans = [Channel(n, "acceleration", "m/s^2", "Z", pos[n], fs, row) for n, row in zip(("DP", "A", "B"), acc,
-                                                                                              strict=True)]
+        chans = [
+            Channel(n, "acceleration", "m/s^2", "Z", pos[n], fs, row)
+            for n, row in zip(("DP", "A", "B"), acc, strict=True)
+        ]
         chans.append(Channel("force", "force", "N", "Z", pos["DP"], fs, u_meas, role="drive"))
-        recs.append(Recording(tuple(chans), {"source": f"twin {level:g} N", "level_n": float(level), "seed": seed + i}))
+        recs.append(
+            Recording(
+                tuple(chans), {"source": f"twin {level:g} N", "level_n": float(level), "seed": seed + i}
+            )
+        )
         if return_truth:
             truths.append(truth_modes(tw, delta[0], law, p))
     return (recs, truths) if return_truth else recs
 
 
 def truth_modes(tw: Twin, delta: np.ndarray, law, period: int) -> tuple[np.ndarray, np.ndarray]:
-    """True (frequency in Hz, damping ratio) per mode at one level: the joint's equivalent complex stiffness.
+    """Return the true (frequency in Hz, damping ratio) per mode at one level.
 
     The slider force is replayed on the simulated joint motion ``delta`` (whole periods after
     the first); per mode the ratio of the force's and the motion's spectra over the excited
-    lines within +-3 half-power bandwidths of the mode (the window follows the mode as it moves) gives the element's equivalent complex stiffness at
-    that mode, which replaces the element in the linear structure's eigenproblem.
+    lines within +-3 half-power bandwidths of the mode (the window follows the mode as it moves)
+    gives the element's equivalent complex stiffness at that mode, which replaces the element in the
+    linear structure's eigenproblem.
     """
     n_per = delta.size // period
     d = delta[period : n_per * period]

@@ -83,11 +83,15 @@ class CsvColumn:
     def __post_init__(self) -> None:
         who = f"column map entry {self.name!r}"
         if self.quantity not in QUANTITY_UNITS:
-            raise InputError(f"{who}: quantity {self.quantity!r}; expected one of {', '.join(QUANTITY_UNITS)}")
+            raise InputError(
+                f"{who}: quantity {self.quantity!r}; expected one of {', '.join(QUANTITY_UNITS)}"
+            )
         q = UNIT_FACTORS.get(self.unit)
         if q is None or q[0] != self.quantity:
             ok = [u for u, (qq, _) in UNIT_FACTORS.items() if qq == self.quantity]
-            raise InputError(f"{who}: unit {self.unit!r} for {self.quantity}; expected one of {', '.join(ok)}")
+            raise InputError(
+                f"{who}: unit {self.unit!r} for {self.quantity}; expected one of {', '.join(ok)}"
+            )
         if self.direction not in DIRECTIONS:
             raise InputError(f"{who}: direction {self.direction!r}; expected one of X, Y, Z or empty")
         if self.role not in ROLES:
@@ -235,7 +239,9 @@ def read_csv(
         raise InputError(f"CSV file {str(path)!r}: {len(lines)} data row(s); expected a time series")
     if sample_rate_hz is None:
         if times is None:
-            raise InputError(f"CSV file {str(path)!r}: no sample rate; give sample_rate_hz (--rate) or a time column")
+            raise InputError(
+                f"CSV file {str(path)!r}: no sample rate; give sample_rate_hz (--rate) or a time column"
+            )
         dt = np.diff(times)
         step = float(np.median(dt))
         if not step > 0 or np.max(np.abs(dt - step)) > 1e-3 * step:

@@ -81,8 +81,10 @@ def test_distortion_is_seen_at_detection_lines_only_when_the_system_is_nonlinear
     # a static cubic at the output puts power on the detection lines
     y = np.array([c.data for c in lin.response_channels])
     y_nl = y + 0.3 * y**3 / np.std(y, axis=1, keepdims=True) ** 2
-    chans = [Channel(c.name, c.quantity, c.unit, c.direction, None, FS, row)
-             for c, row in zip(lin.response_channels, y_nl, strict=True)] + [lin.drive]
+    chans = [
+        Channel(c.name, c.quantity, c.unit, c.direction, None, FS, row)
+        for c, row in zip(lin.response_channels, y_nl, strict=True)
+    ] + [lin.drive]
     f_nl = estimate_level_frf(Recording(tuple(chans), {}), "nl", LevelSettings())
     assert np.median(f_nl.distortion / np.abs(f_nl.H)) > 1e-3
 
@@ -123,8 +125,21 @@ def test_a_reference_that_cannot_fit_is_refused_naming_band_and_modes():
     h = frf.H.copy()
     m = (frf.freq_hz > 40) & (frf.freq_hz < 70)
     h[:, m] *= np.exp(2j * np.pi * np.random.default_rng(2).random(m.sum()))
-    bad = LevelFRF(frf.label, frf.level, frf.freq_hz, h, frf.sigma, None, frf.U, "periodic", frf.resolution_hz,
-                   frf.n_periods, frf.channels, "N", "m/s^2")
+    bad = LevelFRF(
+        frf.label,
+        frf.level,
+        frf.freq_hz,
+        h,
+        frf.sigma,
+        None,
+        frf.U,
+        "periodic",
+        frf.resolution_hz,
+        frf.n_periods,
+        frf.channels,
+        "N",
+        "m/s^2",
+    )
     model = identify_reference(bad, excited_band(bad, None), LevelSettings())
     with pytest.raises(InputError, match=r"does not reproduce its own recording.*worst in (4|5|6)\d"):
         check_reference(model, bad)
@@ -134,8 +149,20 @@ def _table(f, z, amp, res=None):
     f, z, amp = (np.atleast_2d(np.asarray(a, float)).T for a in (f, z, amp))
     n = f.shape[0]
     res = np.ones((n, 3, 1), complex) if res is None else res
-    return ModalTable(tuple(f"L{i}" for i in range(n)), np.arange(1.0, n + 1), f, 1e-4 * np.ones_like(f), z,
-                      1e-5 * np.ones_like(z), amp, "m/s^2", ("D",), res, 1e-3 * np.ones(res.shape), np.ones_like(f))
+    return ModalTable(
+        tuple(f"L{i}" for i in range(n)),
+        np.arange(1.0, n + 1),
+        f,
+        1e-4 * np.ones_like(f),
+        z,
+        1e-5 * np.ones_like(z),
+        amp,
+        "m/s^2",
+        ("D",),
+        res,
+        1e-3 * np.ones(res.shape),
+        np.ones_like(f),
+    )
 
 
 @pytest.mark.parametrize(

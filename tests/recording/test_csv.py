@@ -28,8 +28,11 @@ def table(tmp_path):
 
 def test_column_map_converts_to_si_and_marks_the_drive(table):
     path, rows = table
-    cols = [CsvColumn("force", "Fz", "force", "N", role="drive"), CsvColumn("DP", "a1", "acceleration", "g"),
-            CsvColumn("x", 3, "displacement", "mm")]
+    cols = [
+        CsvColumn("force", "Fz", "force", "N", role="drive"),
+        CsvColumn("DP", "a1", "acceleration", "g"),
+        CsvColumn("x", 3, "displacement", "mm"),
+    ]
     rec = read_csv(path, cols, time_column="t")
     assert rec.channels[0].sample_rate_hz == pytest.approx(400.0)
     assert rec.drive.name == "force" and rec.drive.unit == "N"
@@ -57,8 +60,10 @@ def test_tsv_and_semicolon_csv_give_the_same_recording(tmp_path):
 def test_bad_files_name_the_input_and_the_fix(tmp_path, content, match):
     path = tmp_path / "bad.csv"
     path.write_text(content)
-    cols = [CsvColumn("force", "Fz", "force", "N", role="drive"),
-            CsvColumn("DP", "a9" if "missing" in match else "a1", "acceleration", "g")]
+    cols = [
+        CsvColumn("force", "Fz", "force", "N", role="drive"),
+        CsvColumn("DP", "a9" if "missing" in match else "a1", "acceleration", "g"),
+    ]
     with pytest.raises(InputError, match=match):
         read_csv(path, cols, sample_rate_hz=400.0)
 
@@ -75,15 +80,43 @@ def test_column_map_entries_are_checked():
 def test_cli_import_writes_a_recording_and_writes_nothing_on_bad_input(table, tmp_path, capsys):
     path, _ = table
     out = tmp_path / "run.h5"
-    args = ["import", str(path), "--time-column", "t", "--column", "force=Fz:force:N:Z:drive",
-            "--column", "DP=a1:acceleration:g", "--position", "force=0.1,0,0", "--position", "DP=0.1,0,0",
-            "--out", str(out)]
+    args = [
+        "import",
+        str(path),
+        "--time-column",
+        "t",
+        "--column",
+        "force=Fz:force:N:Z:drive",
+        "--column",
+        "DP=a1:acceleration:g",
+        "--position",
+        "force=0.1,0,0",
+        "--position",
+        "DP=0.1,0,0",
+        "--out",
+        str(out),
+    ]
     assert main(args) == 0
     rec = read_recording(out)
     assert rec.drive.position_m == rec.channel("DP").position_m == (0.1, 0.0, 0.0)
     bad = tmp_path / "bad.h5"
-    assert main(["import", str(path), "--rate", "400", "--column", "force=Fx:force:N:Z:drive",
-                 "--column", "DP=a1:acceleration:g", "--out", str(bad)]) == 2
+    assert (
+        main(
+            [
+                "import",
+                str(path),
+                "--rate",
+                "400",
+                "--column",
+                "force=Fx:force:N:Z:drive",
+                "--column",
+                "DP=a1:acceleration:g",
+                "--out",
+                str(bad),
+            ]
+        )
+        == 2
+    )
     err = capsys.readouterr().err.strip().splitlines()
     assert len(err) == 1 and "column 'Fx' is missing" in err[0]
     assert not bad.exists()

@@ -53,6 +53,7 @@ __all__ = [
     "ModeTrend",
     "JointLaw",
     "diagnose_levels",
+    "diagnose_level_frfs",
     "write_level_figures",
     "write_level_report",
 ]
@@ -125,14 +126,28 @@ def diagnose_levels(
     train, holdout = [int(i) for i in train], [int(i) for i in holdout]
     if n < 3:
         raise InputError(f"{n} recording(s); a level trend needs at least 3 drive levels")
-    if set(train) & set(holdout) or not train or not holdout or min(train + holdout) < 0 or max(train + holdout) >= n:
-        raise InputError(f"train {train} and holdout {holdout}: expected disjoint, non-empty indices in 0..{n - 1}")
-    labels = list(labels) if labels is not None else [str(r.metadata.get("source", f"level {i}")) for i, r in enumerate(recs)]
+    if (
+        set(train) & set(holdout)
+        or not train
+        or not holdout
+        or min(train + holdout) < 0
+        or max(train + holdout) >= n
+    ):
+        raise InputError(
+            f"train {train} and holdout {holdout}: expected disjoint, non-empty indices in 0..{n - 1}"
+        )
+    labels = (
+        list(labels)
+        if labels is not None
+        else [str(r.metadata.get("source", f"level {i}")) for i, r in enumerate(recs)]
+    )
     names0 = recs[0].names
     for lab, r in zip(labels, recs, strict=True):
         if r.names != names0:
-            raise InputError(f"recording {lab!r} has channels {list(r.names)}, the first {list(names0)}; "
-                             "record every level with the same channels")
+            raise InputError(
+                f"recording {lab!r} has channels {list(r.names)}, the first {list(names0)}; "
+                "record every level with the same channels"
+            )
     # ---- compare: FRFs per level, band, reference model and its self-check
     bar = _bar(n, "FRFs per level", progress)
     frfs = []
@@ -141,9 +156,74 @@ def diagnose_levels(
         bar.update(1)
     bar.close()
     ref_i = int(np.argmin([f.level for f in frfs]))
+    return diagnose_level_frfs(
+        frfs,
+        train,
+        holdout,
+        drive_point=_drive_point(recs[ref_i]),
+        interfaces=interfaces,
+        settings=settings,
+        progress=progress,
+        state=state,
+        t_start=t0,
+    )
+
+
+def diagnose_level_frfs(
+    frfs: Sequence[LevelFRF],
+    train: Sequence[int],
+    holdout: Sequence[int],
+    *,
+    drive_point: str | None = None,
+    interfaces: Sequence[tuple[str, str]] | None = None,
+    settings: LevelSettings | None = None,
+    progress: bool = True,
+    state: dict | None = None,
+    t_start: float | None = None,
+) -> Diagnosis:
+    """Diagnose from measured FRFs per level: the stages after the FRF estimate (e.g. a test export).
+
+    Parameters
+    ----------
+    frfs : sequence of LevelFRF
+        One per level, same channels; ``sigma`` the FRFs' standard deviations (from the test
+        software's coherence or repeated runs), ``U`` the drive's amplitude per line.
+    train, holdout : sequence of int
+        As in :func:`diagnose_levels`.
+    drive_point : str, optional
+        The accelerometer at the force (force drive): scales the modes to kg.
+    interfaces, settings, progress, state
+        As in :func:`diagnose_levels`.
+    t_start : float, optional
+        ``time.perf_counter()`` at the start, for the wall time in the JSON.
+
+    Returns
+    -------
+    Diagnosis
+        With one response channel the trends are reported but nothing is located or fitted.
+    """
+    t0 = time.perf_counter() if t_start is None else t_start
+    settings = settings or LevelSettings()
+    frfs = list(frfs)
+    n = len(frfs)
+    train, holdout = [int(i) for i in train], [int(i) for i in holdout]
+    if n < 3:
+        raise InputError(f"{n} level(s); a level trend needs at least 3 drive levels")
+    if (
+        set(train) & set(holdout)
+        or not train
+        or not holdout
+        or min(train + holdout) < 0
+        or max(train + holdout) >= n
+    ):
+        raise InputError(
+            f"train {train} and holdout {holdout}: expected disjoint, non-empty indices in 0..{n - 1}"
+        )
+    labels = [f.label for f in frfs]
+    dp = drive_point
+    ref_i = int(np.argmin([f.level for f in frfs]))
     ref = frfs[ref_i]
     band = excited_band(ref, settings.band_hz)
-    dp = _drive_point(recs[ref_i])
     model = identify_reference(ref, band, settings, drive_point=dp)
     check_reference(model, ref)
     res_msgs = _resolution_warnings(model, ref, settings)
@@ -157,21 +237,54 @@ def diagnose_levels(
     pair, evidence = locate_pair(table, trends, ref.channels, settings, interfaces)
     meta = _metadata(labels, frfs, ref_i, band, model, table, trends, evidence, res_msgs, train, holdout)
     if state is not None:
-        state.update(frfs=frfs, model=model, table=table, trends=trends, pair=pair, labels=labels,
-                     train=train, holdout=holdout)
+        state.update(
+            frfs=frfs,
+            model=model,
+            table=table,
+            trends=trends,
+            pair=pair,
+            labels=labels,
+            train=train,
+            holdout=holdout,
+        )
     nonlin = [t for t in trends if t.outcome in NONLINEAR]
+    if nonlin and len(ref.channels) < 2:
+        meta["wall_time_s"] = time.perf_counter() - t0
+        meta["summary"] = (
+            f"{nonlin[0].outcome} in the modal trends (one channel: not located, no joint law fitted)"
+        )
+        un = {
+            "location": {"sensors": list(ref.channels)},
+            "band_hz": list(band),
+            "level_dependent": True,
+            "explanation": "modes "
+            + ", ".join(
+                f"{t.mode} ({t.frequency_hz:.4g} Hz): {t.outcome}, frequency "
+                f"{100 * t.frequency_change:+.2f} %, damping {100 * t.damping_change:+.0f} %"
+                for t in nonlin
+            )
+            + "; one response channel holds no relative motion, so the joint is neither located nor modelled",
+        }
+        return Diagnosis(True, (), (un,), meta)
     if not nonlin:
         mis = [t for t in trends if t.outcome == "linear_mismodelled"]
         meta["wall_time_s"] = time.perf_counter() - t0
         if not mis:
-            meta["summary"] = ("no level dependence: every mode keeps its frequency and damping across the levels "
-                               "within their uncertainty, and the reference model reproduces its recording")
+            meta["summary"] = (
+                "no level dependence: every mode keeps its frequency and damping across the levels "
+                "within their uncertainty, and the reference model reproduces its recording"
+            )
             return Diagnosis(False, (), (), meta)
         meta["summary"] = "linear but mis-modelled: modes scatter between levels without a trend"
-        un = {"location": {"sensors": list(ref.channels)}, "band_hz": list(band), "level_dependent": False,
-              "explanation": "modes " + ", ".join(f"{t.mode} ({t.frequency_hz:.4g} Hz)" for t in mis)
-              + " change between levels beyond their uncertainty but not with the level: a linear effect the "
-              "reference model does not hold (time variance, temperature, a changed set-up)"}
+        un = {
+            "location": {"sensors": list(ref.channels)},
+            "band_hz": list(band),
+            "level_dependent": False,
+            "explanation": "modes "
+            + ", ".join(f"{t.mode} ({t.frequency_hz:.4g} Hz)" for t in mis)
+            + " change between levels beyond their uncertainty but not with the level: a linear effect the "
+            "reference model does not hold (time variance, temperature, a changed set-up)",
+        }
         return Diagnosis(True, (), (un,), meta)
     # ---- fit and prove
     counts = {}
@@ -190,19 +303,39 @@ def diagnose_levels(
         "train_after": float(np.mean([proof[k]["mean_after"] for k in tr_labels])),
         "holdout_before": float(np.mean([proof[k]["mean_before"] for k in ho_labels])),
         "holdout_after": float(np.mean([proof[k]["mean_after"] for k in ho_labels])),
-        "metric": (f"relative FRF error ||H_model - H_meas|| / ||H_meas|| in {band[0]:.4g}-{band[1]:.4g} Hz per "
-                   "channel, mean over channels; held-out levels predicted from their drive alone"),
-        "per_level": {k: {"before": v["before"], "after": v["after"], "mean_before": v["mean_before"],
-                          "mean_after": v["mean_after"], "held_out": k in ho_labels,
-                          "relative_displacement_predicted_m": v["sigma_predicted_m"],
-                          "relative_displacement_measured_m": v["sigma_measured_m"]} for k, v in proof.items()},
+        "metric": (
+            f"relative FRF error ||H_model - H_meas|| / ||H_meas|| in {band[0]:.4g}-{band[1]:.4g} Hz per "
+            "channel, mean over channels; held-out levels predicted from their drive alone"
+        ),
+        "per_level": {
+            k: {
+                "before": v["before"],
+                "after": v["after"],
+                "mean_before": v["mean_before"],
+                "mean_after": v["mean_after"],
+                "held_out": k in ho_labels,
+                "relative_displacement_predicted_m": v["sigma_predicted_m"],
+                "relative_displacement_measured_m": v["sigma_measured_m"],
+            }
+            for k, v in proof.items()
+        },
     }
-    params = {k: {"value": float(v["value"]), "unit": v["unit"],
-                  "std": float(v["std"]) if np.isfinite(v["std"]) else None} for k, v in law.parameters.items()}
+    params = {
+        k: {
+            "value": float(v["value"]),
+            "unit": v["unit"],
+            "std": float(v["std"]) if np.isfinite(v["std"]) else None,
+        }
+        for k, v in law.parameters.items()
+    }
     meta["joint_law"] = {
-        "kind": law.kind, "pair": list(law.pair), "shape": law.shape,
-        "modes": [{"mode": r + 1, "f0_hz": float(f), "zeta0": float(z), "coupling_rad2_per_s2": float(c)}
-                  for r, f, z, c in zip(law.modes, law.f0_hz, law.zeta0, law.coupling, strict=True)],
+        "kind": law.kind,
+        "pair": list(law.pair),
+        "shape": law.shape,
+        "modes": [
+            {"mode": r + 1, "f0_hz": float(f), "zeta0": float(z), "coupling_rad2_per_s2": float(c)}
+            for r, f, z, c in zip(law.modes, law.f0_hz, law.zeta0, law.coupling, strict=True)
+        ],
     }
     location = {"sensors": list(pair) if pair else [], "interface": f"{pair[0]}-{pair[1]}" if pair else None}
     fmodes = [t for t in trends if t.outcome in NONLINEAR]
@@ -213,14 +346,20 @@ def diagnose_levels(
         # a law that does not predict the held-out levels better than the reference explains nothing
         meta["fit_rejected"] = fit
         meta["summary"] = f"{physics} in the modal trends, but no joint law predicts the held-out levels"
-        un = {"location": location, "band_hz": list(mband), "level_dependent": True,
-              "explanation": text + " The law does not reduce the held-out error, so it is not taken as an "
-              "explanation."}
+        un = {
+            "location": location,
+            "band_hz": list(mband),
+            "level_dependent": True,
+            "explanation": text + " The law does not reduce the held-out error, so it is not taken as an "
+            "explanation.",
+        }
         return Diagnosis(True, (), (un,), meta)
     flags = []
     if pair is None:
-        flags.append(f"not located: the law is fitted across the best-ranked pair {fit_pair[0]}-{fit_pair[1]}, "
-                     "whose change is not significant")
+        flags.append(
+            f"not located: the law is fitted across the best-ranked pair {fit_pair[0]}-{fit_pair[1]}, "
+            "whose change is not significant"
+        )
     worse = [k for k in ho_labels if proof[k]["mean_after"] >= proof[k]["mean_before"]]
     if worse:
         flags.append(f"the fitted model does not improve the held-out level(s) {', '.join(worse)}")
@@ -228,7 +367,8 @@ def diagnose_levels(
     beyond = [c for c, v in model.check.items() if not v["within_noise"]]
     if beyond:
         flags.append(
-            f"the reference model misfits its own recording beyond the noise at {', '.join(beyond)} (relative error "
+            "the reference model misfits its own recording beyond the noise at "
+            f"{', '.join(beyond)} (relative error "
             + ", ".join(f"{model.check[c]['relative_error']:.2f}" for c in beyond)
             + "): the lowest level may itself be nonlinear; the trends are relative to it"
         )
@@ -245,16 +385,35 @@ def _resolution_warnings(model: ReferenceModel, ref: LevelFRF, settings: LevelSe
     if not low.size:
         return []
     need = settings.min_lines / max(float(np.min(bw[low])), 1e-12)
-    modes = ", ".join(f"{model.frequency_hz[k]:.4g} Hz/{100 * model.damping_ratio[k]:.2f} % ({lines[k]:.1f} lines)"
-                      for k in low)
-    how = (f"a drive period of at least {need:.3g} s" if ref.excitation == "periodic"
-           else f"a record (or --resolution segment) of at least {need:.3g} s")
-    return [f"{low.size} mode(s) span fewer than {settings.min_lines:g} lines of their half-power bandwidth at "
-            f"{ref.resolution_hz:.4g} Hz, so their damping is poorly resolved: {modes}; resolving them needs {how}"]
+    modes = ", ".join(
+        f"{model.frequency_hz[k]:.4g} Hz/{100 * model.damping_ratio[k]:.2f} % ({lines[k]:.1f} lines)"
+        for k in low
+    )
+    how = (
+        f"a drive period of at least {need:.3g} s"
+        if ref.excitation == "periodic"
+        else f"a record (or --resolution segment) of at least {need:.3g} s"
+    )
+    return [
+        f"{low.size} mode(s) span fewer than {settings.min_lines:g} lines of their half-power bandwidth at "
+        f"{ref.resolution_hz:.4g} Hz, so their damping is poorly resolved: {modes}; resolving "
+        f"them needs {how}"
+    ]
 
 
-def _metadata(labels, frfs: list[LevelFRF], ref_i, band, model: ReferenceModel, table: ModalTable, trends,
-              evidence, res_msgs, train, holdout) -> dict:
+def _metadata(
+    labels,
+    frfs: list[LevelFRF],
+    ref_i,
+    band,
+    model: ReferenceModel,
+    table: ModalTable,
+    trends,
+    evidence,
+    res_msgs,
+    train,
+    holdout,
+) -> dict:
     ref = frfs[ref_i]
     unit = f"{ref.response_unit}/{ref.drive_unit}"
     return {
@@ -273,11 +432,14 @@ def _metadata(labels, frfs: list[LevelFRF], ref_i, band, model: ReferenceModel, 
         "distortion_estimated": ref.distortion is not None,
         "resolution_warnings": list(res_msgs),
         "reference_model": {
-            "modes": [{"frequency_hz": float(f), "damping_ratio": float(z)}
-                      for f, z in zip(model.frequency_hz, model.damping_ratio, strict=True)],
+            "modes": [
+                {"frequency_hz": float(f), "damping_ratio": float(z)}
+                for f, z in zip(model.frequency_hz, model.damping_ratio, strict=True)
+            ],
             "check": model.check,
-            "modal_mass_kg": None if model.modal_mass_kg is None else
-            [None if not np.isfinite(m) else float(m) for m in model.modal_mass_kg],
+            "modal_mass_kg": None
+            if model.modal_mass_kg is None
+            else [None if not np.isfinite(m) else float(m) for m in model.modal_mass_kg],
             "degenerate_masses": list(model.degenerate),
         },
         "modal_table": table.rows(),
@@ -287,7 +449,10 @@ def _metadata(labels, frfs: list[LevelFRF], ref_i, band, model: ReferenceModel, 
 
 
 def write_level_figures(state: dict, directory: str | Path) -> list[Path]:
-    """Write the amplitude plot and the FRF overlays of a :func:`diagnose_levels` run (``state``) into a directory."""
+    """Write the amplitude plot and the FRF overlays of a :func:`diagnose_levels` run into a directory.
+
+    ``state`` is the dict that run filled; returns the written PNG paths.
+    """
     d = Path(directory)
     d.mkdir(parents=True, exist_ok=True)
     out = [plot_amplitude(state["table"], state["trends"], d / "modal_vs_amplitude.png")]
@@ -300,13 +465,22 @@ def write_level_figures(state: dict, directory: str | Path) -> list[Path]:
         lo = max(f[min(nl)] * 0.9, state["model"].band_hz[0]) if nl else None
         hi = min(f[max(nl)] * 1.1, state["model"].band_hz[1]) if nl else None
         unit = f"{frf.response_unit}/{frf.drive_unit}"
-        out.append(plot_overlays(state["proof"], labs, list(frf.channels), show, unit, d / "frf_overlays.png",
-                                 (lo, hi) if nl else None))
+        out.append(
+            plot_overlays(
+                state["proof"],
+                labs,
+                list(frf.channels),
+                show,
+                unit,
+                d / "frf_overlays.png",
+                (lo, hi) if nl else None,
+            )
+        )
     return out
 
 
 def write_level_report(diagnosis: Diagnosis, state: dict, directory: str | Path) -> Path:
-    """Write ``index.html`` with the modal table, the trends, the location evidence, the proof and the figures.
+    """Write ``index.html``: the modal table, the trends, the location evidence, the proof and the figures.
 
     Parameters
     ----------
@@ -334,7 +508,8 @@ def write_level_report(diagnosis: Diagnosis, state: dict, directory: str | Path)
     esc = html.escape
     rows = "".join(
         f"<tr><td>{esc(r['recording'])}</td><td>{r['mode']}</td><td>{r['frequency_hz']:.4f} &plusmn; "
-        f"{r['frequency_std_hz']:.4f}</td><td>{100 * r['damping_ratio']:.3f} &plusmn; {100 * r['damping_std']:.3f}</td>"
+        f"{r['frequency_std_hz']:.4f}</td><td>{100 * r['damping_ratio']:.3f} &plusmn; "
+        f"{100 * r['damping_std']:.3f}</td>"
         f"<td>{r['amplitude']:.3g} {esc(r['amplitude_unit'])}</td></tr>"
         for r in meta.get("modal_table", [])
     )
@@ -344,8 +519,10 @@ def write_level_report(diagnosis: Diagnosis, state: dict, directory: str | Path)
         f"<td>{100 * t['damping_change']:+.0f} % ({t['damping_z']:+.1f} &sigma;)</td></tr>"
         for t in meta.get("trends", [])
     )
-    loc = "".join(f"<tr><td>{esc('-'.join(e['pair']))}</td><td>{e['score']:+.3f}</td><td>{e['z']:+.1f}</td></tr>"
-                  for e in meta.get("location_evidence", []))
+    loc = "".join(
+        f"<tr><td>{esc('-'.join(e['pair']))}</td><td>{e['score']:+.3f}</td><td>{e['z']:+.1f}</td></tr>"
+        for e in meta.get("location_evidence", [])
+    )
     check = "".join(
         f"<tr><td>{esc(c)}</td><td>{v['relative_error']:.3f}</td><td>{v['misfit_in_noise_units']:.1f}</td>"
         f"<td>{'yes' if v['passed'] else 'no'}</td></tr>"
@@ -357,7 +534,8 @@ def write_level_report(diagnosis: Diagnosis, state: dict, directory: str | Path)
         "margin:6px 0}td,th{border:1px solid #bbb;padding:2px 7px;font-size:88%}img{max-width:100%}</style>"
         "</head><body><h1>Level-trend diagnosis</h1>",
         f"<p><b>{esc(diagnosis.summary)}</b></p>",
-        f"<p>Excitation {esc(str(meta.get('excitation')))}, band {meta['band_hz'][0]:.4g}-{meta['band_hz'][1]:.4g} "
+        f"<p>Excitation {esc(str(meta.get('excitation')))}, band "
+        f"{meta['band_hz'][0]:.4g}-{meta['band_hz'][1]:.4g} "
         f"Hz, resolution {meta['resolution_hz']:.4g} Hz, FRFs in {esc(meta['frf_unit'])}; reference "
         f"{esc(meta['reference'])}.</p>",
     ]
@@ -365,15 +543,23 @@ def write_level_report(diagnosis: Diagnosis, state: dict, directory: str | Path)
         parts.append(f"<h2>Finding: {esc(f.physics)}</h2><p>{esc(f.explanation)}</p>")
         if f.flags:
             parts.append("<ul>" + "".join(f"<li>{esc(x)}</li>" for x in f.flags) + "</ul>")
-        prm = "".join(f"<tr><td>{esc(k)}</td><td>{v['value']:.4g}</td><td>{esc(v['unit'])}</td>"
-                      f"<td>{'-' if v['std'] is None else format(v['std'], '.2g')}</td></tr>"
-                      for k, v in f.parameters.items())
-        parts.append(f"<table><tr><th>parameter</th><th>value</th><th>unit</th><th>std</th></tr>{prm}</table>")
-        lv = "".join(f"<tr><td>{esc(k)}</td><td>{'held out' if v['held_out'] else 'train'}</td>"
-                     f"<td>{v['mean_before']:.3f}</td><td>{v['mean_after']:.3f}</td></tr>"
-                     for k, v in f.fit["per_level"].items())
-        parts.append("<h3>Proof: relative FRF error per level (mean over channels)</h3><table><tr><th>level</th>"
-                     f"<th>role</th><th>reference model</th><th>with the joint law</th></tr>{lv}</table>")
+        prm = "".join(
+            f"<tr><td>{esc(k)}</td><td>{v['value']:.4g}</td><td>{esc(v['unit'])}</td>"
+            f"<td>{'-' if v['std'] is None else format(v['std'], '.2g')}</td></tr>"
+            for k, v in f.parameters.items()
+        )
+        parts.append(
+            f"<table><tr><th>parameter</th><th>value</th><th>unit</th><th>std</th></tr>{prm}</table>"
+        )
+        lv = "".join(
+            f"<tr><td>{esc(k)}</td><td>{'held out' if v['held_out'] else 'train'}</td>"
+            f"<td>{v['mean_before']:.3f}</td><td>{v['mean_after']:.3f}</td></tr>"
+            for k, v in f.fit["per_level"].items()
+        )
+        parts.append(
+            "<h3>Proof: relative FRF error per level (mean over channels)</h3><table><tr><th>level</th>"
+            f"<th>role</th><th>reference model</th><th>with the joint law</th></tr>{lv}</table>"
+        )
     for u in diagnosis.unexplained:
         parts.append(f"<h2>Unexplained</h2><p>{esc(u['explanation'])}</p>")
     parts += [
@@ -384,6 +570,8 @@ def write_level_report(diagnosis: Diagnosis, state: dict, directory: str | Path)
         f"<h2>Location evidence</h2><table><tr><th>pair</th><th>score</th><th>z</th></tr>{loc}</table>",
     ]
     parts += [f"<h2>{esc(p.stem.replace('_', ' '))}</h2><img src='{p.name}'>" for p in figs]
-    parts.append("<h2>Modal parameters per level</h2><table><tr><th>recording</th><th>mode</th><th>f (Hz)</th>"
-                 f"<th>damping (%)</th><th>amplitude</th></tr>{rows}</table></body></html>")
+    parts.append(
+        "<h2>Modal parameters per level</h2><table><tr><th>recording</th><th>mode</th><th>f (Hz)</th>"
+        f"<th>damping (%)</th><th>amplitude</th></tr>{rows}</table></body></html>"
+    )
     return write_text_atomic(d / "index.html", "".join(parts), "diagnosis report")

@@ -17,10 +17,9 @@ from __future__ import annotations
 from dataclasses import dataclass, replace
 
 import numpy as np
-import scipy.optimize
 
 from exudyn_study.diagnose.levels.frf import LevelFRF
-from exudyn_study.diagnose.levels.modal import ReferenceModel, fit_mode, mode_term, pole_of, synthesise
+from exudyn_study.diagnose.levels.modal import ReferenceModel, fit_mode, mode_term, pole_of
 
 __all__ = ["ModalTable", "fit_modes_per_level", "mode_amplitude"]
 
@@ -57,23 +56,25 @@ class ModalTable:
     chi2: np.ndarray
 
     def rows(self) -> list[dict]:
-        """The table as JSON rows (one per level and mode)."""
+        """Return the table as JSON rows (one per level and mode)."""
         out = []
         for i, lab in enumerate(self.labels):
             for r in range(self.frequency_hz.shape[1]):
-                out.append({
-                    "recording": lab,
-                    "level": float(self.levels[i]),
-                    "mode": r + 1,
-                    "frequency_hz": float(self.frequency_hz[i, r]),
-                    "frequency_std_hz": float(self.frequency_std_hz[i, r]),
-                    "damping_ratio": float(self.damping_ratio[i, r]),
-                    "damping_std": float(self.damping_std[i, r]),
-                    "amplitude": float(self.amplitude[i, r]),
-                    "amplitude_unit": self.amplitude_unit,
-                    "amplitude_channel": self.amplitude_channel[r],
-                    "reduced_chi2": float(self.chi2[i, r]),
-                })
+                out.append(
+                    {
+                        "recording": lab,
+                        "level": float(self.levels[i]),
+                        "mode": r + 1,
+                        "frequency_hz": float(self.frequency_hz[i, r]),
+                        "frequency_std_hz": float(self.frequency_std_hz[i, r]),
+                        "damping_ratio": float(self.damping_ratio[i, r]),
+                        "damping_std": float(self.damping_std[i, r]),
+                        "amplitude": float(self.amplitude[i, r]),
+                        "amplitude_unit": self.amplitude_unit,
+                        "amplitude_channel": self.amplitude_channel[r],
+                        "reduced_chi2": float(self.chi2[i, r]),
+                    }
+                )
         return out
 
 
@@ -111,16 +112,32 @@ def fit_modes_per_level(model: ReferenceModel, frfs: list[LevelFRF], progress=No
         # that moves with level into the mode's window is then not mistaken for it)
         for _sweep in range(2):
             for r in range(nm):
-                fr[i, r], fs_[i, r], ze[i, r], zs[i, r], res[i, :, r], rstd[i, :, r], chi[i, r] = fit_mode(cur, r, sub)
+                fr[i, r], fs_[i, r], ze[i, r], zs[i, r], res[i, :, r], rstd[i, :, r], chi[i, r] = fit_mode(
+                    cur, r, sub
+                )
                 poles = cur.poles.copy()
                 poles[r] = pole_of((fr[i, r], ze[i, r]))
                 resid = cur.residues.copy()
                 resid[:, r] = res[i, :, r]
                 cur = replace(cur, poles=poles, residues=resid)
         for r in range(nm):
-            amp[i, r] = mode_amplitude(model.residues[ch[r], r], pole_of((fr[i, r], ze[i, r])), frf.freq_hz, frf.U)
+            amp[i, r] = mode_amplitude(
+                model.residues[ch[r], r], pole_of((fr[i, r], ze[i, r])), frf.freq_hz, frf.U
+            )
         if progress is not None:
             progress(1)
     unit = frfs[0].response_unit
-    return ModalTable(tuple(f.label for f in frfs), np.array([f.level for f in frfs]), fr, fs_, ze, zs, amp, unit,
-                      tuple(model.channels[c] for c in ch), res, rstd, chi)
+    return ModalTable(
+        tuple(f.label for f in frfs),
+        np.array([f.level for f in frfs]),
+        fr,
+        fs_,
+        ze,
+        zs,
+        amp,
+        unit,
+        tuple(model.channels[c] for c in ch),
+        res,
+        rstd,
+        chi,
+    )

@@ -27,17 +27,25 @@ def explain_finding(physics: str, trends: list[ModeTrend], pair, proof: dict, ho
         f"({t.frequency_z:+.1f} sigma), damping {100 * t.damping_change:+.0f} % ({t.damping_z:+.1f} sigma)"
         for t in moving
     )
-    where = (f"between sensors {pair[0]} and {pair[1]}, whose relative motion in these modes changes most with "
-             "level" if pair else "at no single sensor pair (the relative motions do not change significantly)")
+    where = (
+        f"between sensors {pair[0]} and {pair[1]}, whose relative motion in these modes changes most with "
+        "level"
+        if pair
+        else "at no single sensor pair (the relative motions do not change significantly)"
+    )
     ho = "; ".join(f"{k}: {proof[k]['mean_before']:.3g} -> {proof[k]['mean_after']:.3g}" for k in holdout)
-    return (f"The modal parameters change with drive level as {_WORDS.get(physics, physics)}: {modes}. "
-            f"The level dependence sits {where}. One joint law across that pair (Jenkins micro-slip or a power-law "
-            f"stiffness, fitted on the training levels) predicts the held-out levels from their drive alone: relative FRF error "
-            f"{ho}.")
+    return (
+        f"The modal parameters change with drive level as {_WORDS.get(physics, physics)}: {modes}. "
+        f"The level dependence sits {where}. One joint law across that pair (Jenkins micro-slip "
+        "or a power-law "
+        "stiffness, fitted on the training levels) predicts the held-out levels from their drive "
+        "alone: relative FRF error "
+        f"{ho}."
+    )
 
 
 def plot_amplitude(table, trends, path: Path) -> Path:
-    """Frequency and damping of every level-dependent mode (else all) against its amplitude, with 1-sigma bars."""
+    """Plot frequency and damping of each level-dependent mode (else all) against amplitude (1-sigma bars)."""
     import matplotlib
 
     matplotlib.use("Agg")
@@ -50,9 +58,17 @@ def plot_amplitude(table, trends, path: Path) -> Path:
     for k, r in enumerate(modes):
         a = table.amplitude[:, r]
         o = np.argsort(a)
-        ax[0, k].errorbar(a[o], table.frequency_hz[o, r], yerr=table.frequency_std_hz[o, r], marker="o", capsize=3)
-        ax[1, k].errorbar(a[o], 100 * table.damping_ratio[o, r], yerr=100 * table.damping_std[o, r], marker="o",
-                          capsize=3, color="C3")
+        ax[0, k].errorbar(
+            a[o], table.frequency_hz[o, r], yerr=table.frequency_std_hz[o, r], marker="o", capsize=3
+        )
+        ax[1, k].errorbar(
+            a[o],
+            100 * table.damping_ratio[o, r],
+            yerr=100 * table.damping_std[o, r],
+            marker="o",
+            capsize=3,
+            color="C3",
+        )
         ax[0, k].set_title(f"mode {r + 1}: {trends[r].outcome}", fontsize=9)
         ax[1, k].set_xlabel(f"rms amplitude at {table.amplitude_channel[r]} ({table.amplitude_unit})")
         for a_ in ax[:, k]:
@@ -67,8 +83,9 @@ def plot_amplitude(table, trends, path: Path) -> Path:
     return path
 
 
-def plot_overlays(proof: dict, labels: list[str], channels, show: list[str], unit: str, path: Path,
-                  band_hz=None) -> Path:
+def plot_overlays(
+    proof: dict, labels: list[str], channels, show: list[str], unit: str, path: Path, band_hz=None
+) -> Path:
     """Measured, nominal (reference model) and fitted FRF magnitudes per level at the sensors ``show``."""
     import matplotlib
 
@@ -76,8 +93,9 @@ def plot_overlays(proof: dict, labels: list[str], channels, show: list[str], uni
     import matplotlib.pyplot as plt
 
     idx = [list(channels).index(s) for s in show]
-    fig, ax = plt.subplots(len(labels), len(idx), figsize=(4.2 * len(idx), 2.4 * len(labels) + 0.6),
-                           squeeze=False, sharex=True)
+    fig, ax = plt.subplots(
+        len(labels), len(idx), figsize=(4.2 * len(idx), 2.4 * len(labels) + 0.6), squeeze=False, sharex=True
+    )
     for i, lab in enumerate(labels):
         p = proof[lab]
         for k, c in enumerate(idx):
@@ -85,8 +103,10 @@ def plot_overlays(proof: dict, labels: list[str], channels, show: list[str], uni
             a.semilogy(p["freq_hz"], np.abs(p["H_measured"][c]), "k.", ms=2, label="measured")
             a.semilogy(p["freq_hz"], np.abs(p["H_nominal"][c]), "C0-", lw=0.9, label="nominal (reference)")
             a.semilogy(p["freq_hz"], np.abs(p["H_fitted"][c]), "C3--", lw=0.9, label="fitted")
-            a.set_title(f"{lab}: {channels[c]} (err {p['before'][channels[c]]:.2g} -> {p['after'][channels[c]]:.2g})",
-                        fontsize=8)
+            a.set_title(
+                f"{lab}: {channels[c]} (err {p['before'][channels[c]]:.2g} -> {p['after'][channels[c]]:.2g})",
+                fontsize=8,
+            )
             a.set_ylabel(f"|H| ({unit})", fontsize=8)
             if band_hz is not None:
                 a.set_xlim(*band_hz)

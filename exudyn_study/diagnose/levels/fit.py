@@ -1,4 +1,4 @@
-"""Fit and prove stages: one joint law across the located sensor pair, fitted on training levels, proven on held-out ones.
+"""Fit and prove stages: one joint law across the located pair, fitted on training levels, proven on others.
 
 A joint is one element whose state depends on the relative motion across it, which every mode
 contributes to: its amplitude is ``sigma``, the rms relative displacement of the located pair
@@ -60,19 +60,36 @@ from exudyn_study.diagnose.levels.frf import LevelFRF
 from exudyn_study.diagnose.levels.reference import ReferenceModel, synthesise
 from exudyn_study.diagnose.levels.screen import ModeTrend
 
-__all__ = ["JointLaw", "jenkins_df", "jenkins_random", "relative_displacement", "scaled_coupling",
-           "fit_joint_law", "level_sigma", "predict_poles", "prove"]
+__all__ = [
+    "JointLaw",
+    "jenkins_df",
+    "jenkins_random",
+    "relative_displacement",
+    "scaled_coupling",
+    "fit_joint_law",
+    "level_sigma",
+    "predict_poles",
+    "prove",
+]
 
 _X = np.linspace(1e-3, 7.0, 281)
 _W = _X**3 * np.exp(-0.5 * _X**2)
 _W = _W / np.trapezoid(_W, _X)
 #: laws per screened outcome
-LAW_OF = {"joint_friction": "jenkins", "joint_softening": "jenkins", "joint_damping": "jenkins",
-          "joint_stiffening": "power", "joint_clearance": "power"}
+LAW_OF = {
+    "joint_friction": "jenkins",
+    "joint_softening": "jenkins",
+    "joint_damping": "jenkins",
+    "joint_stiffening": "power",
+    "joint_clearance": "power",
+}
 
 
 def jenkins_df(x: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
-    """In-phase and quadrature stiffness of a Jenkins element per unit spring stiffness at ``x = A / a_slip``."""
+    """In-phase and quadrature stiffness of a Jenkins element per unit spring stiffness.
+
+    ``x = A / a_slip`` is the harmonic amplitude in slip amplitudes.
+    """
     x = np.asarray(x, float)
     kc = np.ones_like(x)
     kq = np.zeros_like(x)
@@ -84,7 +101,10 @@ def jenkins_df(x: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
 
 
 def jenkins_random(ratio: float) -> tuple[float, float]:
-    """:func:`jenkins_df` averaged over Rayleigh amplitudes of rms ``ratio`` (in slip amplitudes), energy weighted."""
+    """Average :func:`jenkins_df` over Rayleigh amplitudes of rms ``ratio`` (in slip amplitudes).
+
+    Energy-weighted: the amplitudes that carry the response count most.
+    """
     kc, kq = jenkins_df(_X * ratio)
     return float(np.trapezoid(kc * _W, _X)), float(np.trapezoid(kq * _W, _X))
 
@@ -125,7 +145,7 @@ class JointLaw:
     parameters: dict
 
     def d(self, sigma: float) -> np.ndarray:
-        """Equivalent stiffness change per unit coupling of each mode at rms relative displacement ``sigma`` (m)."""
+        """Equivalent stiffness change per unit coupling of each mode at relative displacement ``sigma``."""
         if self.kind == "jenkins":
             out = np.array([jenkins_random(sigma / a) for a in np.atleast_1d(self.shape["a_slip"])])
             return (out[:, 0] - 1.0) + 1j * out[:, 1]
@@ -147,7 +167,10 @@ class JointLaw:
 
 
 def relative_displacement(h: np.ndarray, freq_hz: np.ndarray, u: np.ndarray, i: int, j: int) -> float:
-    """Rms relative displacement (m) of channels ``i``, ``j`` from acceleration FRFs ``h`` and line amplitudes ``u``."""
+    """Rms relative displacement (m) of channels ``i``, ``j``.
+
+    From acceleration FRFs ``h[n_out, n_freq]`` and the drive's line amplitudes ``u``.
+    """
     w2 = (2 * np.pi * np.asarray(freq_hz)) ** 2
     dx = (h[j] - h[i]) * u / w2
     return float(np.sqrt(0.5 * np.sum(np.abs(dx) ** 2)))
@@ -182,21 +205,36 @@ def level_sigma(frfs: list[LevelFRF], model: ReferenceModel, table: ModalTable, 
         w = 2 * np.pi * table.frequency_hz[k]
         z = table.damping_ratio[k]
         poles = -z * w + 1j * w * np.sqrt(np.maximum(1 - z * z, 1e-12))
-        out.append(relative_displacement(synthesise(model, frf.freq_hz[m], poles), frf.freq_hz[m], frf.U[m], i, j))
+        out.append(
+            relative_displacement(synthesise(model, frf.freq_hz[m], poles), frf.freq_hz[m], frf.U[m], i, j)
+        )
     return np.array(out)
 
 
 def _fit_mode(kind, f, fs, z, zs, sig, s_ref):
-    """Fit one mode's (f0, zeta0, c / w_lo^2, log a_slip or p, d / w_lo^2) to its per-level data against ``sig``."""
+    """Fit one mode's (f0, zeta0, c / w_lo^2, log a_slip or p, d / w_lo^2) to its levels against ``sig``."""
     i0 = int(np.argmin(sig))
     w_lo2 = (2 * np.pi * f[i0]) ** 2
     span = math.log(s_ref / float(np.min(sig))) + 3.0
 
     def law(x):
-        shape = {"a_slip": np.array([s_ref * math.exp(x[3])])} if kind == "jenkins" else {
-            "p": np.array([x[3]]), "sigma_ref": s_ref}
-        return JointLaw(kind, ("", ""), (0,), np.array([x[0]]), np.array([x[1]]), np.array([x[2] * w_lo2]),
-                        np.array([x[4] * w_lo2]), shape, None, {})
+        shape = (
+            {"a_slip": np.array([s_ref * math.exp(x[3])])}
+            if kind == "jenkins"
+            else {"p": np.array([x[3]]), "sigma_ref": s_ref}
+        )
+        return JointLaw(
+            kind,
+            ("", ""),
+            (0,),
+            np.array([x[0]]),
+            np.array([x[1]]),
+            np.array([x[2] * w_lo2]),
+            np.array([x[4] * w_lo2]),
+            shape,
+            None,
+            {},
+        )
 
     def res(x):
         m = law(x)
@@ -211,9 +249,19 @@ def _fit_mode(kind, f, fs, z, zs, sig, s_ref):
         lb, ub = [0.9 * f[i0], 1e-6, -1.0, 0.5, 0.0], [1.1 * f[i0], 0.5, 1.0, 8.0, 1e-9]
         shapes = (1.0, 2.0, 4.0)
     drop = abs(1.0 - (f[int(np.argmax(sig))] / f[i0]) ** 2)
-    grid = [np.array([f[i0], max(z[i0], 1e-5), cs * max(drop, 1e-5), sh, (cs * max(drop, 1e-5) if kind == "jenkins"
-                                                                           else 0.0)])
-            for sh in shapes for cs in (0.5, 1.0, 3.0, 10.0)]
+    grid = [
+        np.array(
+            [
+                f[i0],
+                max(z[i0], 1e-5),
+                cs * max(drop, 1e-5),
+                sh,
+                (cs * max(drop, 1e-5) if kind == "jenkins" else 0.0),
+            ]
+        )
+        for sh in shapes
+        for cs in (0.5, 1.0, 3.0, 10.0)
+    ]
     lb, ub = np.array(lb), np.array(ub)
     grid = [np.clip(x, lb + 1e-12, ub - 1e-12) for x in grid]
     costs = [float(np.sum(res(x) ** 2)) for x in grid]
@@ -228,12 +276,28 @@ def _fit_mode(kind, f, fs, z, zs, sig, s_ref):
     m = law(best.x)
     shape_v = m.shape["a_slip"][0] if kind == "jenkins" else m.shape["p"][0]
     shape_s = shape_v * sx[3] if kind == "jenkins" else sx[3]
-    return (best.x[0], best.x[1], best.x[2] * w_lo2, sx[2] * w_lo2, shape_v, shape_s, 2 * best.cost / dof,
-            best.x[4] * w_lo2)
+    return (
+        best.x[0],
+        best.x[1],
+        best.x[2] * w_lo2,
+        sx[2] * w_lo2,
+        shape_v,
+        shape_s,
+        2 * best.cost / dof,
+        best.x[4] * w_lo2,
+    )
 
 
-def fit_joint_law(table: ModalTable, trends: list[ModeTrend], physics: str, pair, frfs: list[LevelFRF],
-                  model: ReferenceModel, train: list[int], g: np.ndarray | None = None) -> JointLaw:
+def fit_joint_law(
+    table: ModalTable,
+    trends: list[ModeTrend],
+    physics: str,
+    pair,
+    frfs: list[LevelFRF],
+    model: ReferenceModel,
+    train: list[int],
+    g: np.ndarray | None = None,
+) -> JointLaw:
     """Fit the joint law of ``physics`` across ``pair`` on the training levels.
 
     Parameters
@@ -284,9 +348,14 @@ def fit_joint_law(table: ModalTable, trends: list[ModeTrend], physics: str, pair
         k, k_sd = _weighted_median(k_r, rows[:, 3] / np.maximum(gm, 1e-30), gm)
         params["joint_stiffness_n_per_m"] = {"value": k, "unit": "N/m", "std": k_sd}
         if kind == "jenkins":
-            params["slip_force_n"] = {"value": k * a_s, "unit": "N",
-                                      "std": k * a_s * math.hypot(a_sd / max(a_s, 1e-300), k_sd / max(k, 1e-300))}
-    return JointLaw(kind, tuple(pair), modes, rows[:, 0], rows[:, 1], rows[:, 2], rows[:, 7], shape, k, params)
+            params["slip_force_n"] = {
+                "value": k * a_s,
+                "unit": "N",
+                "std": k * a_s * math.hypot(a_sd / max(a_s, 1e-300), k_sd / max(k, 1e-300)),
+            }
+    return JointLaw(
+        kind, tuple(pair), modes, rows[:, 0], rows[:, 1], rows[:, 2], rows[:, 7], shape, k, params
+    )
 
 
 def _weighted_median(v: np.ndarray, s: np.ndarray, w: np.ndarray) -> tuple[float, float]:

@@ -81,11 +81,23 @@ class LevelFRF:
         return np.hypot(self.sigma, self.distortion)
 
     def select(self, mask: np.ndarray) -> LevelFRF:
-        """The same FRFs at the lines where ``mask`` is True."""
+        """Return the same FRFs at the lines where ``mask`` is True."""
         d = None if self.distortion is None else self.distortion[:, mask]
-        return LevelFRF(self.label, self.level, self.freq_hz[mask], self.H[:, mask], self.sigma[:, mask], d,
-                        self.U[mask], self.excitation, self.resolution_hz, self.n_periods, self.channels,
-                        self.drive_unit, self.response_unit)
+        return LevelFRF(
+            self.label,
+            self.level,
+            self.freq_hz[mask],
+            self.H[:, mask],
+            self.sigma[:, mask],
+            d,
+            self.U[mask],
+            self.excitation,
+            self.resolution_hz,
+            self.n_periods,
+            self.channels,
+            self.drive_unit,
+            self.response_unit,
+        )
 
 
 def detect_period(u: np.ndarray, min_correlation: float = 0.98, min_periods: int = 2) -> int | None:
@@ -111,7 +123,10 @@ def detect_period(u: np.ndarray, min_correlation: float = 0.98, min_periods: int
     # an exact period of m samples over n = k m samples correlates (n - m)/n in the linear estimate
     for cand in (lag, lag - 1, lag + 1):
         if cand > 0 and n % cand == 0:
-            corr = float(np.dot(u[:-cand], u[cand:]) / np.sqrt(np.dot(u[:-cand], u[:-cand]) * np.dot(u[cand:], u[cand:])))
+            corr = float(
+                np.dot(u[:-cand], u[cand:])
+                / np.sqrt(np.dot(u[:-cand], u[:-cand]) * np.dot(u[cand:], u[cand:]))
+            )
             if corr >= min_correlation:
                 return cand
     return None
@@ -126,7 +141,8 @@ def _split(rec: Recording, label: str):
     y, fs = rec.time_data(names)
     if drive.sample_rate_hz != fs or drive.n_samples != y.shape[1]:
         raise InputError(
-            f"recording {label!r}: drive {drive.name!r} has {drive.n_samples} samples at {drive.sample_rate_hz:g} Hz, "
+            f"recording {label!r}: drive {drive.name!r} has {drive.n_samples} samples at "
+            f"{drive.sample_rate_hz:g} Hz, "
             f"the responses {y.shape[1]} at {fs:g} Hz; give the drive on the responses' time base"
         )
     return np.asarray(drive.data, float), y, fs, names, drive.unit, resp[0].unit
@@ -160,8 +176,12 @@ def _periodic(u, y, fs, p: int):
         idx_ne = np.flatnonzero(inside)
         # smooth over +-5 detection lines, then interpolate to the excited lines
         ker = np.ones(11) / 11.0
-        p_s = np.array([np.convolve(row, ker, mode="same") / np.convolve(np.ones_like(row), ker, mode="same")
-                        for row in p_nl])
+        p_s = np.array(
+            [
+                np.convolve(row, ker, mode="same") / np.convolve(np.ones_like(row), ker, mode="same")
+                for row in p_nl
+            ]
+        )
         p_ex = np.array([np.interp(ex_idx, idx_ne, row) for row in p_s])
         dist = np.zeros_like(amp, shape=(y.shape[0], f.size))
         dist[:, ex_idx] = np.sqrt(p_ex) / amp[ex_idx]
@@ -182,10 +202,13 @@ def _random(u, y, fs, settings: LevelSettings, names):
     else:
         if settings.resolution_hz < fs / u.size:
             raise InputError(
-                f"resolution {settings.resolution_hz:g} Hz is finer than the record allows ({fs / u.size:.4g} Hz "
+                f"resolution {settings.resolution_hz:g} Hz is finer than the record allows "
+                f"({fs / u.size:.4g} Hz "
                 f"for {u.size / fs:.4g} s); give --resolution >= {fs / u.size:.4g} Hz or leave it out"
             )
-        frf = estimate_frf(u[None, :], y, fs, resolution_hz=settings.resolution_hz, estimator="H1", outputs=names)
+        frf = estimate_frf(
+            u[None, :], y, fs, resolution_hz=settings.resolution_hz, estimator="H1", outputs=names
+        )
         n_avg = frf.n_averages
         nfft = frf.n_segment
         coh = np.clip(frf.coherence[:, 0, :], 1e-6, 0.9999)
@@ -226,14 +249,16 @@ def estimate_level_frf(rec: Recording, label: str, settings: LevelSettings) -> L
         p = settings.period_s * fs
         if abs(p - round(p)) > 1e-6 * p or n % int(round(p)):
             raise InputError(
-                f"recording {label!r}: the declared period {settings.period_s:g} s ({p:.6g} samples at {fs:g} Hz) "
+                f"recording {label!r}: the declared period {settings.period_s:g} s ({p:.6g} "
+                f"samples at {fs:g} Hz) "
                 f"does not divide the record of {n} samples ({n / fs:g} s); give the drive's exact period or "
                 "trim the record to whole periods"
             )
         period = int(round(p))
         if n // period < 2:
             raise InputError(
-                f"recording {label!r}: {n // period} period of {settings.period_s:g} s; record at least two periods"
+                f"recording {label!r}: {n // period} period of {settings.period_s:g} s; record at "
+                "least two periods"
             )
     elif settings.excitation in ("auto", "periodic"):
         period = detect_period(u, settings.period_correlation)
@@ -246,17 +271,43 @@ def estimate_level_frf(rec: Recording, label: str, settings: LevelSettings) -> L
         f, h, sig, dist, um, exc, m = _periodic(u, y, fs, period)
         dist_sel = None if dist is None else dist[:, exc]
         level = float(np.sqrt(0.5 * np.sum(np.abs(um[exc]) ** 2)))
-        return LevelFRF(label, level, f[exc], h[:, exc], sig[:, exc], dist_sel, um[exc], "periodic",
-                        fs / period, m, names, du, ru)
+        return LevelFRF(
+            label,
+            level,
+            f[exc],
+            h[:, exc],
+            sig[:, exc],
+            dist_sel,
+            um[exc],
+            "periodic",
+            fs / period,
+            m,
+            names,
+            du,
+            ru,
+        )
     f, h, sig, dist, um, n_avg, res = _random(u, y, fs, settings, names)
     keep = f > 0
     level = float(np.std(u))
-    return LevelFRF(label, level, f[keep], h[:, keep], sig[:, keep], None, um[keep], "random", float(res),
-                    n_avg, names, du, ru)
+    return LevelFRF(
+        label,
+        level,
+        f[keep],
+        h[:, keep],
+        sig[:, keep],
+        None,
+        um[keep],
+        "random",
+        float(res),
+        n_avg,
+        names,
+        du,
+        ru,
+    )
 
 
 def excited_band(ref: LevelFRF, requested: tuple[float, float] | None) -> tuple[float, float]:
-    """The contiguous excited band of the reference's drive, or the requested one checked against it.
+    """Return the contiguous excited band of the reference's drive, or the requested one checked against it.
 
     Random drive: the drive's amplitude per line, smoothed over about 1 % of the lines, within
     30 dB of its peak, and the longest contiguous run of such lines; periodic drive:
@@ -287,7 +338,8 @@ def excited_band(ref: LevelFRF, requested: tuple[float, float] | None) -> tuple[
     if lo >= f[-1] or hi <= f[0] or inside.sum() < 8:
         raise InputError(
             f"band {lo:g}-{hi:g} Hz lies outside the data of {ref.label!r} (lines {f[0]:.4g}-{f[-1]:.4g} Hz, "
-            f"excited {band[0]:.4g}-{band[1]:.4g} Hz) or holds fewer than 8 lines; give --band inside the excited band"
+            f"excited {band[0]:.4g}-{band[1]:.4g} Hz) or holds fewer than 8 lines; give --band "
+            "inside the excited band"
         )
     if lo < band[0] - 1e-9 or hi > band[1] + 1e-9:
         import warnings

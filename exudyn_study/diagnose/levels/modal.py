@@ -1,4 +1,4 @@
-"""The modal model of the level-trend diagnosis and the per-mode refit (used by the reference and the level stages).
+"""The modal model of the level-trend diagnosis and the per-mode refit (reference and level stages).
 
 ``H(w) = sum_r R_r / (jw - p_r) + conj(R_r) / (jw - conj(p_r)) + lower + upper (jw)^2`` per channel
 (accelerance form, one input). :func:`fit_mode` refits one mode's pole and residues around the mode
@@ -75,7 +75,11 @@ def synthesise(model: ReferenceModel, freq_hz: np.ndarray, poles: np.ndarray | N
     f = np.asarray(freq_hz, float)
     jw = 2j * np.pi * f
     p = model.poles if poles is None else np.asarray(poles)
-    h = model.lower[:, None] + model.upper[:, None] * jw**2 + np.zeros((model.residues.shape[0], f.size), complex)
+    h = (
+        model.lower[:, None]
+        + model.upper[:, None] * jw**2
+        + np.zeros((model.residues.shape[0], f.size), complex)
+    )
     for k in range(p.size):
         h = h + mode_term(model.residues[:, k], p[k], f)
     return h
@@ -137,7 +141,9 @@ def fit_mode(model: ReferenceModel, r: int, frf: LevelFRF):
     others = synthesise(model, f) - mode_term(model.residues[:, r], model.poles[r], f)
     h = frf.H[:, m] - others
     w = 1.0 / np.maximum(frf.total_sigma[:, m], 1e-12 * np.abs(frf.H[:, m]).max())
-    theta0 = np.array([model.frequency_hz[r], min(max(model.damping_ratio[r], 1e-4), 0.2)])
+    theta0 = np.array(
+        [np.clip(model.frequency_hz[r], f[0], f[-1]), min(max(model.damping_ratio[r], 1e-4), 0.2)]
+    )
     scale = np.array([theta0[0] * 1e-3, theta0[1] * 0.1])
     # the pole stays inside the mode's window and its damping in (0, 30 %]: a mode that left the
     # window (or drowned in noise) ends at a bound and is flagged by its large uncertainty
@@ -162,5 +168,3 @@ def fit_mode(model: ReferenceModel, r: int, frf: LevelFRF):
     residues = coef[:, 0] + 1j * coef[:, 1]
     rstd = np.array([np.sqrt(max(cv[0, 0] + cv[1, 1], 0.0) * s2) for cv in covs])
     return theta[0], std[0], theta[1], std[1], residues, rstd, chi2
-
-

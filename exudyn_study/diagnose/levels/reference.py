@@ -5,7 +5,8 @@ automatic selection of the stable poles, LSFD with residual terms (lower and upp
 by the inverse noise (+ distortion) level of every line, and every pole refitted around its
 mode with the others held (:func:`~.modal.fit_mode`, bounded to the mode's window), three
 sweeps. A peak of the residual that stands out of the noise gets a pole of its own, kept if it
-lowers the misfit by a tenth, so that the model holds as many modes as the band does. The model must then reproduce its own recording per channel:
+lowers the misfit by a tenth, so that the model holds as many modes as the band does. The model must then
+reproduce its own recording per channel:
 a misfit within 3 times the noise, or (flagged) a relative FRF error within ``reference_tolerance``;
 otherwise :func:`check_reference` raises, naming the band and the modes that fail, since
 everything diagnosed on top of a misfit would inherit it.
@@ -46,12 +47,19 @@ def _polymax_poles(frf: LevelFRF, band, max_order: int) -> np.ndarray:
         f = grid
     else:
         h = frf.H
-    poles = polymax(h[:, None, :], f, range(2, max_order + 1), band_hz=band)
+    # a short band (a stepped sine around one mode) holds too few lines for high orders
+    top = int(min(max_order, max(4, f.size // 4)))
+    poles = polymax(h[:, None, :], f, range(2, top + 1), band_hz=band)
     return select_modes(poles).poles
 
 
-def identify_reference(frf: LevelFRF, band: tuple[float, float], settings: LevelSettings,
-                       drive_point: str | None = None, max_added: int = 12) -> ReferenceModel:
+def identify_reference(
+    frf: LevelFRF,
+    band: tuple[float, float],
+    settings: LevelSettings,
+    drive_point: str | None = None,
+    max_added: int = 12,
+) -> ReferenceModel:
     """Identify the reference model (PolyMAX + LSFD with residuals), adding poles at unexplained peaks.
 
     Parameters
@@ -83,8 +91,10 @@ def identify_reference(frf: LevelFRF, band: tuple[float, float], settings: Level
     for _ in range(max_added):
         # a peak of the normalised residual far above the noise where no pole is near gets a pole of
         # its own, kept only if it lowers the misfit by a tenth
-        z = _smooth(np.sum(np.abs(sub.H - synthesise(model, sub.freq_hz)) ** 2 / sub.total_sigma**2, axis=0)
-                    / sub.H.shape[0])
+        z = _smooth(
+            np.sum(np.abs(sub.H - synthesise(model, sub.freq_hz)) ** 2 / sub.total_sigma**2, axis=0)
+            / sub.H.shape[0]
+        )
         k = int(np.argmax(z))
         fk = sub.freq_hz[k]
         if z[k] < 25.0 or np.min(np.abs(model.frequency_hz - fk)) < 2 * sub.resolution_hz:
@@ -95,8 +105,9 @@ def identify_reference(frf: LevelFRF, band: tuple[float, float], settings: Level
         model, chi = trial, chi_t
     check = _self_check(model, sub, settings)
     masses, flags = _masses(model, drive_point)
-    return ReferenceModel(model.poles, model.residues, model.lower, model.upper, frf.channels, tuple(band), check,
-                          masses, flags)
+    return ReferenceModel(
+        model.poles, model.residues, model.lower, model.upper, frf.channels, tuple(band), check, masses, flags
+    )
 
 
 def _residues(frf: LevelFRF, poles: np.ndarray, band) -> ReferenceModel:
@@ -105,9 +116,38 @@ def _residues(frf: LevelFRF, poles: np.ndarray, band) -> ReferenceModel:
 
     w = 1.0 / np.maximum(frf.total_sigma, 1e-12 * np.abs(frf.H).max())
     poles = poles[np.argsort(np.abs(poles))]
-    res = lsfd(frf.H[:, None, :], frf.freq_hz, poles, band_hz=band, frf_form="accelerance", weights=w[:, None, :])
-    return ReferenceModel(res.poles, res.residues[:, 0, :], res.lower[:, 0], res.upper[:, 0], frf.channels,
-                          tuple(band), {}, None, ())
+    res = lsfd(
+        frf.H[:, None, :], frf.freq_hz, poles, band_hz=band, frf_form="accelerance", weights=w[:, None, :]
+    )
+    return ReferenceModel(
+        res.poles,
+        res.residues[:, 0, :],
+        res.lower[:, 0],
+        res.upper[:, 0],
+        frf.channels,
+        tuple(band),
+        {},
+        None,
+        (),
+    )
+
+
+def _merge_close(model: ReferenceModel, frf: LevelFRF, band) -> ReferenceModel:
+    """Merge poles closer than the wider one's half-power bandwidth (one mode): keep the larger residue."""
+    keep = list(range(model.poles.size))
+    f, z = model.frequency_hz, model.damping_ratio
+    size = np.linalg.norm(model.residues, axis=0)
+    changed = True
+    while changed and len(keep) > 1:
+        changed = False
+        for a, b in zip(keep[:-1], keep[1:], strict=True):
+            if abs(f[b] - f[a]) < max(z[a] * f[a], z[b] * f[b], frf.resolution_hz):
+                keep.remove(a if size[a] < size[b] else b)
+                changed = True
+                break
+    if len(keep) == model.poles.size:
+        return model
+    return _residues(frf, model.poles[keep], band)
 
 
 def _refine(frf: LevelFRF, poles: np.ndarray, band, sweeps: int = 3) -> tuple[ReferenceModel, float]:
@@ -115,7 +155,7 @@ def _refine(frf: LevelFRF, poles: np.ndarray, band, sweeps: int = 3) -> tuple[Re
 
     Returns the model and its chi-square against the noise and distortion.
     """
-    model = _residues(frf, poles, band)
+    model = _merge_close(_residues(frf, poles, band), frf, band)
     for _ in range(sweeps):
         new = model.poles.copy()
         for r in range(new.size):
@@ -142,8 +182,9 @@ def _self_check(model: ReferenceModel, frf: LevelFRF, settings: LevelSettings) -
     """Per channel: relative error, the noise's relative level, the misfit in noise units, pass/fail.
 
     A channel passes when its misfit is within the noise, or (``within_noise`` False: flagged) its
-    relative FRF error within ``reference_tolerance``; the misfit in noise units is ``sqrt(mean(|H - H_model|^2 / sigma^2)) <= 3`` (sigma: noise and distortion of
-    every line, floored at 0.1 % of |H| so that a noise-free line cannot demand an exact fit).
+    relative FRF error within ``reference_tolerance``; within the noise means
+    ``sqrt(mean(|H - H_model|^2 / sigma^2)) <= 3`` (sigma: noise and distortion of every line,
+    floored at 0.1 % of |H| so that a noise-free line cannot demand an exact fit).
     """
     syn = synthesise(model, frf.freq_hz)
     sig = np.maximum(frf.total_sigma, 1e-3 * np.abs(frf.H))
@@ -154,9 +195,14 @@ def _self_check(model: ReferenceModel, frf: LevelFRF, settings: LevelSettings) -
         noise = float(np.sqrt(np.mean((sig[c] / np.maximum(np.abs(frf.H[c]), 1e-300)) ** 2)))
         misfit = float(np.sqrt(np.mean(np.abs(frf.H[c] - syn[c]) ** 2 / sig[c] ** 2)))
         ok = rel <= settings.reference_tolerance or misfit <= 3.0
-        out[name] = {"relative_error": rel, "noise_level": noise, "misfit_in_noise_units": misfit,
-                     "tolerance": settings.reference_tolerance, "passed": bool(ok),
-                     "within_noise": bool(misfit <= 3.0)}
+        out[name] = {
+            "relative_error": rel,
+            "noise_level": noise,
+            "misfit_in_noise_units": misfit,
+            "tolerance": settings.reference_tolerance,
+            "passed": bool(ok),
+            "within_noise": bool(misfit <= 3.0),
+        }
     return out
 
 
@@ -173,7 +219,8 @@ def _masses(model: ReferenceModel, drive_point: str | None):
         if phi2[k].real <= 0 or ang > np.deg2rad(30):
             flags.append(
                 f"mode {k + 1} at {model.frequency_hz[k]:.4g} Hz: drive-point residue gives phi^2 = "
-                f"{phi2[k]:.3g} (phase {np.degrees(ang):.0f} deg), not a positive mass; check the drive point "
+                f"{phi2[k]:.3g} (phase {np.degrees(ang):.0f} deg), not a positive mass; check the "
+                "drive point "
                 f"{drive_point!r} and the sign of the force"
             )
         else:
@@ -205,8 +252,11 @@ def check_reference(model: ReferenceModel, frf: LevelFRF) -> None:
         hi += 1
     f0, f1 = sub.freq_hz[lo], sub.freq_hz[hi]
     modes = [f"{f:.4g} Hz" for f in model.frequency_hz if f0 - 1 <= f <= f1 + 1] or ["none found there"]
-    errs = ", ".join(f"{c} {model.check[c]['relative_error']:.2f} ({model.check[c]['misfit_in_noise_units']:.1f} x "
-                     "the noise)" for c in bad)
+    errs = ", ".join(
+        f"{c} {model.check[c]['relative_error']:.2f} ({model.check[c]['misfit_in_noise_units']:.1f} x "
+        "the noise)"
+        for c in bad
+    )
     raise InputError(
         f"reference {frf.label!r}: the modal model ({model.poles.size} modes in {model.band_hz[0]:.4g}-"
         f"{model.band_hz[1]:.4g} Hz) does not reproduce its own recording: relative error {errs}, worst in "

@@ -100,11 +100,17 @@ def screen_trends(table: ModalTable, settings: LevelSettings) -> list[ModeTrend]
         if f_sig and df < 0:
             outcome = "joint_friction" if (z_sig and dz > 0) else "joint_softening"
         elif f_sig and df > 0:
-            flat = abs(f[order[1]] / f[lo] - 1.0) < settings.min_frequency_change if len(order) >= 3 else False
+            flat = (
+                abs(f[order[1]] / f[lo] - 1.0) < settings.min_frequency_change if len(order) >= 3 else False
+            )
             outcome = "joint_clearance" if (df > settings.clearance_rise and flat) else "joint_stiffening"
         elif z_sig and dz > 0:
             outcome = "joint_damping"
         else:
-            outcome = "linear_mismodelled" if chi > 1.0 + 3.0 * np.sqrt(2.0 / max(len(f) - 1, 1)) + 3.0 else "linear"
+            outcome = (
+                "linear_mismodelled"
+                if chi > 1.0 + 3.0 * np.sqrt(2.0 / max(len(f) - 1, 1)) + 3.0
+                else "linear"
+            )
         out.append(ModeTrend(r + 1, float(f[lo]), outcome, float(df), float(dz), float(fz), float(zz), chi))
     return out
