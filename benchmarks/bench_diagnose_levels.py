@@ -85,11 +85,20 @@ def run_twin(seed: int, friction: bool, out: Path | None) -> dict:
             interface=f.location.get("interface"),
             parameters=f.parameters,
             per_level={
-                k: [v["mean_before"], v["mean_after"], v["held_out"]] for k, v in f.fit["per_level"].items()
+                k: [v["mean_before"], v["mean_after"], v["mean_floor"], v["held_out"]]
+            for k, v in f.fit["per_level"].items()
             },
         )
         ho = [v for v in f.fit["per_level"].values() if v["held_out"]]
         fig["holdout_ratio_after_before"] = [v["mean_after"] / v["mean_before"] for v in ho]
+
+        def excess(e, fl):  # the error beyond the noise and distortion floor
+            return float(np.sqrt(max(e * e - fl * fl, 0.0)))
+
+        fig["holdout_excess_ratio_after_before"] = [
+            excess(v["mean_after"], v["mean_floor"]) / max(excess(v["mean_before"], v["mean_floor"]), 1e-300)
+            for v in ho
+        ]
     fig["location_evidence"] = [
         (e["pair"], e["score"], e["z"]) for e in d.metadata.get("location_evidence", [])
     ]
@@ -164,7 +173,8 @@ def run_unesp(root: Path, kind: str, band, out: Path | None) -> dict:
             interface=f.location.get("interface"),
             flags=list(f.flags),
             per_level={
-                k: [v["mean_before"], v["mean_after"], v["held_out"]] for k, v in f.fit["per_level"].items()
+                k: [v["mean_before"], v["mean_after"], v["mean_floor"], v["held_out"]]
+            for k, v in f.fit["per_level"].items()
             },
         )
     for u in d.unexplained:

@@ -313,6 +313,8 @@ def diagnose_level_frfs(
                 "after": v["after"],
                 "mean_before": v["mean_before"],
                 "mean_after": v["mean_after"],
+                "floor": v["floor"],
+                "mean_floor": v["mean_floor"],
                 "held_out": k in ho_labels,
                 "relative_displacement_predicted_m": v["sigma_predicted_m"],
                 "relative_displacement_measured_m": v["sigma_measured_m"],
@@ -553,12 +555,14 @@ def write_level_report(diagnosis: Diagnosis, state: dict, directory: str | Path)
         )
         lv = "".join(
             f"<tr><td>{esc(k)}</td><td>{'held out' if v['held_out'] else 'train'}</td>"
-            f"<td>{v['mean_before']:.3f}</td><td>{v['mean_after']:.3f}</td></tr>"
+            f"<td>{v['mean_before']:.3f}</td><td>{v['mean_after']:.3f}</td>"
+            f"<td>{v['mean_floor']:.3f}</td></tr>"
             for k, v in f.fit["per_level"].items()
         )
         parts.append(
             "<h3>Proof: relative FRF error per level (mean over channels)</h3><table><tr><th>level</th>"
-            f"<th>role</th><th>reference model</th><th>with the joint law</th></tr>{lv}</table>"
+            "<th>role</th><th>reference model</th><th>with the joint law</th><th>noise + distortion floor</th>"
+            f"</tr>{lv}</table>"
         )
     for u in diagnosis.unexplained:
         parts.append(f"<h2>Unexplained</h2><p>{esc(u['explanation'])}</p>")

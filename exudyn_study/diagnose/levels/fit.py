@@ -39,7 +39,8 @@ weighted by ``g_r``.
 A held-out level is predicted from its drive alone: ``sigma`` is the fixed point of
 ``sigma = rms relative displacement of the model at the poles of sigma``; the FRFs are the
 reference model with those poles. The proof is the relative FRF error per channel and level,
-``||H_meas - H_model|| / ||H_meas||`` over the band, before (reference model) and after.
+``||H_meas - H_model|| / ||H_meas||`` over the band, before (reference model) and after, beside the
+floor no linear model can go below: the noise and nonlinear distortion, ``||sigma|| / ||H_meas||``.
 
 References
 ----------
@@ -408,11 +409,15 @@ def prove(model: ReferenceModel, law: JointLaw, frfs: list[LevelFRF]) -> dict:
         nh = np.linalg.norm(h, axis=1)
         e0 = np.linalg.norm(h - h0, axis=1) / nh
         e1 = np.linalg.norm(h - h1, axis=1) / nh
+        # the error a perfect linear model would still have: the noise and the nonlinear distortion
+        floor = np.linalg.norm(frf.total_sigma[:, m], axis=1) / nh
         out[frf.label] = {
             "before": dict(zip(frf.channels, e0.tolist(), strict=True)),
             "after": dict(zip(frf.channels, e1.tolist(), strict=True)),
             "mean_before": float(e0.mean()),
             "mean_after": float(e1.mean()),
+            "floor": dict(zip(frf.channels, floor.tolist(), strict=True)),
+            "mean_floor": float(floor.mean()),
             "sigma_predicted_m": float(sigma),
             "sigma_measured_m": relative_displacement(h, f, frf.U[m], i, j),
             "freq_hz": f,

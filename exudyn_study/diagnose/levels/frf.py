@@ -163,7 +163,15 @@ def _periodic(u, y, fs, p: int):
         h = ym / np.where(exc, um, 1.0)
     # noise: period-to-period scatter of the output error Y_p - H U_p (input and output noise together)
     e = yp - h[:, None, :] * up[None, :, :]
-    var_h = np.var(e, axis=1, ddof=1) / m / np.where(exc, amp, 1.0) ** 2 if m > 1 else np.zeros_like(amp)
+    # the variance of a few periods is itself uncertain (2 (m - 1) degrees of freedom): the noise spectrum is
+    # smooth, so it is averaged over +-5 excited lines, which weights a fit without biasing it
+    var_e = np.var(e, axis=1, ddof=1) if m > 1 else np.zeros((y.shape[0], amp.size))
+    idx = np.flatnonzero(exc)
+    if m > 1 and idx.size > 11:
+        ker = np.ones(11) / 11.0
+        norm = np.convolve(np.ones(idx.size), ker, mode="same")
+        var_e[:, idx] = np.array([np.convolve(row, ker, mode="same") / norm for row in var_e[:, idx]])
+    var_h = var_e / m / np.where(exc, amp, 1.0) ** 2
     # distortion: power at the non-excited lines above their noise, interpolated to the excited lines
     ne = ~exc
     ne[0] = False
