@@ -561,7 +561,7 @@ def write_level_report(diagnosis: Diagnosis, state: dict, directory: str | Path)
         )
         parts.append(
             "<h3>Proof: relative FRF error per level (mean over channels)</h3><table><tr><th>level</th>"
-            "<th>role</th><th>reference model</th><th>with the joint law</th><th>noise + distortion floor</th>"
+            "<th>role</th><th>reference model</th><th>with the joint law</th><th>noise + distortion</th>"
             f"</tr>{lv}</table>"
         )
     for u in diagnosis.unexplained:
