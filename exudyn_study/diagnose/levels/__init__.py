@@ -34,14 +34,19 @@ from pathlib import Path
 import numpy as np
 
 from exudyn_study.diagnose.levels.amplitude import ModalTable, fit_modes_per_level
-from exudyn_study.diagnose.levels.explain import explain_finding, plot_amplitude, plot_overlays
+from exudyn_study.diagnose.levels.explain import (
+    diagnosis_with_law,
+    diagnosis_without_law,
+    plot_amplitude,
+    plot_overlays,
+)
 from exudyn_study.diagnose.levels.fit import JointLaw, fit_joint_law, prove, scaled_coupling
 from exudyn_study.diagnose.levels.frf import LevelFRF, estimate_level_frf, excited_band
 from exudyn_study.diagnose.levels.locate import locate_pair
 from exudyn_study.diagnose.levels.reference import ReferenceModel, check_reference, identify_reference
-from exudyn_study.diagnose.levels.screen import NONLINEAR, ModeTrend, screen_trends
+from exudyn_study.diagnose.levels.screen import ModeTrend, dominant_outcome, screen_trends
 from exudyn_study.diagnose.levels.settings import LevelSettings
-from exudyn_study.diagnose.schema import Diagnosis, Finding
+from exudyn_study.diagnose.schema import Diagnosis
 from exudyn_study.errors import InputError
 from exudyn_study.recording.types import Recording
 
@@ -247,136 +252,21 @@ def diagnose_level_frfs(
             train=train,
             holdout=holdout,
         )
-    nonlin = [t for t in trends if t.outcome in NONLINEAR]
-    if nonlin and len(ref.channels) < 2:
+    done = diagnosis_without_law(trends, ref.channels, band, meta)
+    if done is not None:
         meta["wall_time_s"] = time.perf_counter() - t0
-        meta["summary"] = (
-            f"{nonlin[0].outcome} in the modal trends (one channel: not located, no joint law fitted)"
-        )
-        un = {
-            "location": {"sensors": list(ref.channels)},
-            "band_hz": list(band),
-            "level_dependent": True,
-            "explanation": "modes "
-            + ", ".join(
-                f"{t.mode} ({t.frequency_hz:.4g} Hz): {t.outcome}, frequency "
-                f"{100 * t.frequency_change:+.2f} %, damping {100 * t.damping_change:+.0f} %"
-                for t in nonlin
-            )
-            + "; one response channel holds no relative motion, so the joint is neither located nor modelled",
-        }
-        return Diagnosis(True, (), (un,), meta)
-    if not nonlin:
-        mis = [t for t in trends if t.outcome == "linear_mismodelled"]
-        meta["wall_time_s"] = time.perf_counter() - t0
-        if not mis:
-            meta["summary"] = (
-                "no level dependence: every mode keeps its frequency and damping across the levels "
-                "within their uncertainty, and the reference model reproduces its recording"
-            )
-            return Diagnosis(False, (), (), meta)
-        meta["summary"] = "linear but mis-modelled: modes scatter between levels without a trend"
-        un = {
-            "location": {"sensors": list(ref.channels)},
-            "band_hz": list(band),
-            "level_dependent": False,
-            "explanation": "modes "
-            + ", ".join(f"{t.mode} ({t.frequency_hz:.4g} Hz)" for t in mis)
-            + " change between levels beyond their uncertainty but not with the level: a linear effect the "
-            "reference model does not hold (time variance, temperature, a changed set-up)",
-        }
-        return Diagnosis(True, (), (un,), meta)
+        return done
     # ---- fit and prove
-    counts = {}
-    for t in nonlin:
-        counts[t.outcome] = counts.get(t.outcome, 0) + abs(t.frequency_z) + abs(t.damping_z)
-    physics = max(counts, key=counts.get)
+    physics = dominant_outcome(trends)
     fit_pair = pair or tuple(evidence[0]["pair"])
     g = scaled_coupling(model, fit_pair, dp) if dp is not None else None
     law = fit_joint_law(table, trends, physics, fit_pair, frfs, model, train, g)
     proof = prove(model, law, frfs)
     if state is not None:
         state.update(proof=proof, law=law, physics=physics)
-    ho_labels, tr_labels = [labels[i] for i in holdout], [labels[i] for i in train]
-    fit = {
-        "train_before": float(np.mean([proof[k]["mean_before"] for k in tr_labels])),
-        "train_after": float(np.mean([proof[k]["mean_after"] for k in tr_labels])),
-        "holdout_before": float(np.mean([proof[k]["mean_before"] for k in ho_labels])),
-        "holdout_after": float(np.mean([proof[k]["mean_after"] for k in ho_labels])),
-        "metric": (
-            f"relative FRF error ||H_model - H_meas|| / ||H_meas|| in {band[0]:.4g}-{band[1]:.4g} Hz per "
-            "channel, mean over channels; held-out levels predicted from their drive alone"
-        ),
-        "per_level": {
-            k: {
-                "before": v["before"],
-                "after": v["after"],
-                "mean_before": v["mean_before"],
-                "mean_after": v["mean_after"],
-                "floor": v["floor"],
-                "mean_floor": v["mean_floor"],
-                "held_out": k in ho_labels,
-                "relative_displacement_predicted_m": v["sigma_predicted_m"],
-                "relative_displacement_measured_m": v["sigma_measured_m"],
-            }
-            for k, v in proof.items()
-        },
-    }
-    params = {
-        k: {
-            "value": float(v["value"]),
-            "unit": v["unit"],
-            "std": float(v["std"]) if np.isfinite(v["std"]) else None,
-        }
-        for k, v in law.parameters.items()
-    }
-    meta["joint_law"] = {
-        "kind": law.kind,
-        "pair": list(law.pair),
-        "shape": law.shape,
-        "modes": [
-            {"mode": r + 1, "f0_hz": float(f), "zeta0": float(z), "coupling_rad2_per_s2": float(c)}
-            for r, f, z, c in zip(law.modes, law.f0_hz, law.zeta0, law.coupling, strict=True)
-        ],
-    }
-    location = {"sensors": list(pair) if pair else [], "interface": f"{pair[0]}-{pair[1]}" if pair else None}
-    fmodes = [t for t in trends if t.outcome in NONLINEAR]
-    mband = (float(min(t.frequency_hz for t in fmodes)), float(max(t.frequency_hz for t in fmodes)))
-    text = explain_finding(physics, trends, pair, proof, ho_labels)
+    # ---- explain
     meta["wall_time_s"] = time.perf_counter() - t0
-    if not fit["holdout_after"] < fit["holdout_before"]:
-        # a law that does not predict the held-out levels better than the reference explains nothing
-        meta["fit_rejected"] = fit
-        meta["summary"] = f"{physics} in the modal trends, but no joint law predicts the held-out levels"
-        un = {
-            "location": location,
-            "band_hz": list(mband),
-            "level_dependent": True,
-            "explanation": text + " The law does not reduce the held-out error, so it is not taken as an "
-            "explanation.",
-        }
-        return Diagnosis(True, (), (un,), meta)
-    flags = []
-    if pair is None:
-        flags.append(
-            f"not located: the law is fitted across the best-ranked pair {fit_pair[0]}-{fit_pair[1]}, "
-            "whose change is not significant"
-        )
-    worse = [k for k in ho_labels if proof[k]["mean_after"] >= proof[k]["mean_before"]]
-    if worse:
-        flags.append(f"the fitted model does not improve the held-out level(s) {', '.join(worse)}")
-    flags.extend(model.degenerate)
-    beyond = [c for c, v in model.check.items() if not v["within_noise"]]
-    if beyond:
-        flags.append(
-            "the reference model misfits its own recording beyond the noise at "
-            f"{', '.join(beyond)} (relative error "
-            + ", ".join(f"{model.check[c]['relative_error']:.2f}" for c in beyond)
-            + "): the lowest level may itself be nonlinear; the trends are relative to it"
-        )
-    finding = Finding(physics, location, mband, True, text, params, fit, tuple(flags))
-    meta["summary"] = f"{physics}" + (f" between {pair[0]} and {pair[1]}" if pair else " (not located)")
-    return Diagnosis(True, (finding,), (), meta)
+    return diagnosis_with_law(physics, trends, pair, law, proof, model, labels, train, holdout, band, meta)
 
 
 def _resolution_warnings(model: ReferenceModel, ref: LevelFRF, settings: LevelSettings) -> list[str]:

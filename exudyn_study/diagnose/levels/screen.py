@@ -32,7 +32,7 @@ import numpy as np
 from exudyn_study.diagnose.levels.amplitude import ModalTable
 from exudyn_study.diagnose.levels.settings import LevelSettings
 
-__all__ = ["ModeTrend", "screen_trends", "NONLINEAR"]
+__all__ = ["ModeTrend", "screen_trends", "dominant_outcome", "NONLINEAR"]
 
 #: outcomes that are a level dependence (the fit stage models them)
 NONLINEAR = ("joint_friction", "joint_softening", "joint_stiffening", "joint_clearance", "joint_damping")
@@ -114,3 +114,12 @@ def screen_trends(table: ModalTable, settings: LevelSettings) -> list[ModeTrend]
             )
         out.append(ModeTrend(r + 1, float(f[lo]), outcome, float(df), float(dz), float(fz), float(zz), chi))
     return out
+
+
+def dominant_outcome(trends: list[ModeTrend]) -> str:
+    """Return the level-dependent outcome with the largest summed significance over the modes."""
+    score: dict[str, float] = {}
+    for t in trends:
+        if t.outcome in NONLINEAR:
+            score[t.outcome] = score.get(t.outcome, 0.0) + abs(t.frequency_z) + abs(t.damping_z)
+    return max(score, key=score.get)
