@@ -171,8 +171,8 @@ def diagnosis_with_law(
         errs = ", ".join(f"{model.check[c]['relative_error']:.2f}" for c in beyond)
         flags.append(
             "the reference model misfits its own recording beyond the noise at "
-            f"{', '.join(beyond)} (relative error {errs}): the lowest level may itself be nonlinear; the trends "
-            "are relative to it"
+            f"{', '.join(beyond)} (relative error {errs}): the lowest level may itself be nonlinear; "
+            "the trends are relative to it"
         )
     finding = Finding(physics, location, mband, True, text, params, fit, tuple(flags))
     meta["summary"] = f"{physics}" + (f" between {pair[0]} and {pair[1]}" if pair else " (not located)")
