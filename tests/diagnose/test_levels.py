@@ -233,3 +233,35 @@ def test_twin_with_a_linear_joint_gives_no_finding():
     recs = simulate_twin([0.2, 0.4, 0.7, 1.1, 1.6], twin=Twin(period_s=10.0, friction_share=0.0), periods=4)
     d = diagnose_levels(recs, [0, 2, 4], [1, 3], progress=False)
     assert not d.findings and not d.mismatch_found
+
+
+def test_cli_levels_bad_input_is_one_line_and_writes_nothing(tmp_path, capsys):
+    from exudyn_study.cli import main
+    from exudyn_study.recording import write_recording
+
+    paths = []
+    for i in range(3):
+        rec, _ = _multisine_recording(noise=0.002, periods=4, seed=i)
+        paths.append(str(write_recording(rec, tmp_path / f"l{i}.h5")))
+    out = tmp_path / "d.json"
+    base = [
+        "diagnose",
+        "--model",
+        "levels",
+        "--train",
+        paths[0],
+        paths[2],
+        "--holdout",
+        paths[1],
+        "--json",
+        str(out),
+        "--no-progress",
+    ]
+    for extra, match in (
+        (["--band", "300", "400"], "band 300-400 Hz lies outside the data"),
+        (["--period", "3.3"], "does not divide the record"),
+    ):
+        assert main(base + extra) == 2
+        err = capsys.readouterr().err.strip().splitlines()
+        assert len(err) == 1 and match in err[0]
+        assert not out.exists()
