@@ -329,6 +329,16 @@ def _tomls(work: Path) -> dict[str, tuple[str, str]]:
     return names
 
 
+def _csvs(work: Path) -> None:
+    """Time-data exports for ``import``: one valid, the rest each wrong in one way."""
+    (work / "T.csv").write_text("t,Fz,a1\n" + "".join(f"{i / 400},{i % 7},{i % 5}\n" for i in range(64)))
+    (work / "T_missing.csv").write_text("t,Fz\n0,1\n0.0025,2\n")
+    (work / "T_text.csv").write_text("t,Fz,a1\n0,1,2\n0.0025,two,3\n")
+    (work / "T_ragged.csv").write_text("t,Fz,a1\n0,1,2\n0.0025,2\n")
+    (work / "T_empty.csv").write_text("")
+    (work / "T_binary.csv").write_bytes(bytes(range(256)) * 4)
+
+
 def prepare(work: Path) -> None:
     """Write the valid and bad input files into ``work`` (an empty directory)."""
     from exudyn_study.recording.io import write_recording
@@ -342,6 +352,7 @@ def prepare(work: Path) -> None:
     (work / "blocker").write_text("a file where a directory is expected\n")
     (work / "cache").mkdir()
     _modes_json(work)
+    _csvs(work)
     written = (_bad_recordings(work, work / "F.h5", work / "F.uff"), _bad_jsons(work), _tomls(work))
     index = (_recordings_index(), _bad_jsons_index(), _tomls_index())
     if written != index:  # the cases name files by these indexes
@@ -903,6 +914,27 @@ def cases(work: Path) -> list[Case]:
     add("sweep", "sweep", "config missing", "missing.toml", "--out", "new")
     add("sweep", "sweep", "config is a directory", "sub", "--out", "new")
     add("sweep", "sweep", "config not utf8", "s_not_utf8.toml", "--out", "new")
+    # 10. import: CSV/TSV time data through a column map
+    cmap = ("--column", "force=Fz:force:N:Z:drive", "--column", "DP=a1:acceleration:g")
+    add("output-is-input", "import", "out=input", "F.h5", *cmap, "--rate", "400", "--out", "F.h5")
+    add("reader-error", "import", "column missing", "T_missing.csv", *cmap, "--rate", "400", "--out", "n.h5")
+    add("reader-error", "import", "column not numeric", "T_text.csv", *cmap, "--rate", "400", "--out", "n.h5")
+    add("reader-error", "import", "rows of unequal length", "T_ragged.csv", *cmap, "--rate", "400",
+        "--out", "n.h5")
+    add("reader-error", "import", "no rate", "T.csv", *cmap, "--out", "n.h5")
+    add("reader-error", "import", "column map malformed", "T.csv", "--column", "force", "--rate", "400",
+        "--out", "n.h5")
+    add("corrupt-file", "import", "empty file", "T_empty.csv", *cmap, "--rate", "400", "--out", "n.h5")
+    add("corrupt-file", "import", "binary file", "T_binary.csv", *cmap, "--rate", "400", "--out", "n.h5")
+    add("corrupt-file", "import", "file missing", "missing.csv", *cmap, "--rate", "400", "--out", "n.h5")
+    add("unwritable-output", "import", "out is a dir", "T.csv", *cmap, "--rate", "400", "--out", "sub")
+    add("unwritable-output", "import", "out below a file", "T.csv", *cmap, "--rate", "400",
+        "--out", "blocker/n.h5")
+    add("unwritable-output", "import", "out not a recording", "T.csv", *cmap, "--rate", "400",
+        "--out", "n.txt")
+    add("absurd-value", "import", "rate zero", "T.csv", *cmap, "--rate", "0", "--out", "n.h5")
+    add("absurd-value", "import", "rate 1e300", "T.csv", *cmap, "--rate", "1e300", "--out", "n.h5")
+    add("absurd-value", "import", "rate nan", "T.csv", *cmap, "--rate", "nan", "--out", "n.h5")
     return out
 
 

@@ -43,9 +43,10 @@ SUBCOMMANDS: dict[str, tuple[str, str]] = {
                       "choose flexible-body modal damping to match identified modes"),
     "sweep": ("exudyn_study.cli.sweep", "run a parameter sweep from a TOML file (process pool or Dask)"),
     "diagnose": ("exudyn_study.cli.diagnose",
-                      "locate model/recording mismatch, name the missing physics, fit it"),
+                 "locate model/recording mismatch, name the missing physics, fit it"),
+    "import": ("exudyn_study.cli.import_", "CSV/TSV time data to a recording through a column map"),
     "virtual-test": ("exudyn_study.cli.virtual_test",
-                      "play a scenario on the virtual test rig into recordings"),
+                     "play a scenario on the virtual test rig into recordings"),
 }
 
 

@@ -5,8 +5,15 @@ Usage::
     exudyn-study diagnose --model modal:low.h5 --train low.h5 mid.h5 --holdout high.h5 \\
         --json diagnosis.json [--report report/] [--interface A2:B1 ...]
     exudyn-study diagnose --model 2 --train run1.h5 --holdout run2.h5 --json diagnosis.json
+    exudyn-study diagnose --model levels --train l1.h5 l3.h5 l5.h5 l7.h5 --holdout l2.h5 l4.h5 l6.h5 \
+        --json diagnosis.json [--report report/] [--band 5 160] [--period 20]
 
-``--model modal:REFERENCE`` is the generic path
+``--model levels`` is the level-trend path (:func:`~exudyn_study.diagnose.levels.diagnose_levels`)
+for a shaker or base test at several drive levels: FRFs fitted to the excitation (whole periods
+of a multisine, or LRM/H1 for random), the reference model from the lowest level checked against
+its own recording, modal parameters per level, the level trend, the joint located among the
+sensor pairs, a joint law fitted on the training levels and proven on the held-out ones.
+``--model modal:REFERENCE`` is the local-element path
 (:func:`~exudyn_study.diagnose.generic.diagnose_generic`): the nominal model is a linear
 modal model identified from the lowest-level recording REFERENCE. ``--model 1|2|3`` is the
 chassis on the rig (:func:`exudyn_study.diagnose.rig.diagnose_rig`). The JSON (schema in
@@ -36,9 +43,10 @@ def configure(parser: argparse.ArgumentParser) -> None:
     parser.add_argument(
         "--model",
         required=True,
-        metavar="{1,2,3|modal:REFERENCE}",
-        help="nominal model: rig variant 1, 2 or 3, or modal:REC for a linear modal model "
-        "identified from the lowest-level recording REC",
+        metavar="{1,2,3|modal:REFERENCE|levels}",
+        help="nominal model: rig variant 1, 2 or 3; modal:REC for a linear modal model identified from the "
+        "lowest-level recording REC (local-element fit); levels for the level-trend diagnosis (the lowest "
+        "level among --train/--holdout is the reference)",
     )
     parser.add_argument(
         "--train",
@@ -76,20 +84,30 @@ def configure(parser: argparse.ArgumentParser) -> None:
         type=RESOLUTION,
         default=None,
         metavar="HZ",
-        help="generic path: FRF resolution in Hz (default 0.25)",
+        help="FRF resolution in Hz (modal: default 0.25; levels, random drive: default one LRM estimate "
+        "over the record, periodic drive: 1 / period)",
     )
     add_cache_dir(parser)
+    parser.add_argument("--band", nargs=2, type=float, default=None, metavar=("FMIN", "FMAX"),
+                        help="analysis band in Hz (default: the contiguous excited band of the reference)")
+    parser.add_argument("--period", type=float, default=None, metavar="S",
+                        help="levels: period of a periodic drive in s (default: detected from the drive)")
+    parser.add_argument("--excitation", choices=("auto", "periodic", "random"), default="auto",
+                        help="levels: FRF estimate for a periodic (multisine) or random drive (default auto)")
+    parser.add_argument("--no-progress", action="store_true", help="no progress bars or stage lines (stderr)")
 
 
 def _parse_model(text: str):
     text = str(text).strip()
     if text in ("1", "2", "3"):
         return int(text), None
+    if text == "levels":
+        return "levels", None
     if text.startswith("modal:") and len(text) > len("modal:"):
         return None, Path(text[len("modal:") :])
     raise InputError(
-        f"--model {text!r}: expected 1, 2 or 3 (rig variant) or modal:REFERENCE_RECORDING "
-        "(e.g. modal:low_level.h5)"
+        f"--model {text!r}: expected 1, 2 or 3 (rig variant), modal:REFERENCE_RECORDING "
+        "(e.g. modal:low_level.h5) or levels"
     )
 
 
@@ -135,6 +153,8 @@ def run(args: argparse.Namespace) -> int:
     with OutputSet(inputs=inputs) as outputs:
         json_path = outputs.file(args.json, "--json")
         report = outputs.directory(args.report, "--report")
+        if variant == "levels":
+            return _run_levels(args, interfaces, json_path, report)
         diagnosis, figures = _diagnose(args, variant, ref_path, interfaces)
         if report is not None:
             from exudyn_study.diagnose.report import write_report
@@ -152,7 +172,7 @@ def run(args: argparse.Namespace) -> int:
 
 
 def _diagnose(args: argparse.Namespace, variant, ref_path, interfaces):
-    quiet = getattr(args, "quiet", False)
+    quiet = _quiet(args)
     train = _read(args.train, "--train")
     holdout = _read(args.holdout, "--holdout")
     figures: dict = {}
@@ -173,8 +193,10 @@ def _diagnose(args: argparse.Namespace, variant, ref_path, interfaces):
     from exudyn_study.diagnose.generic import GenericSettings, diagnose_generic
 
     (reference,) = _read([ref_path], "--model modal:")
-    settings = (GenericSettings() if args.resolution is None
-                else GenericSettings(resolution_hz=args.resolution))
+    kw = {} if args.resolution is None else {"resolution_hz": args.resolution}
+    if args.band is not None:
+        kw["band_hz"] = tuple(args.band)
+    settings = GenericSettings(**kw)
     labels = {
         "reference": ref_path.name,
         "train": [Path(p).name for p in args.train],
@@ -187,8 +209,49 @@ def _diagnose(args: argparse.Namespace, variant, ref_path, interfaces):
         interfaces,
         settings=settings,
         labels=labels,
-        progress=lambda msg: print(msg, file=sys.stderr) if getattr(args, "verbose", False) else None,
+        progress=None if _quiet(args) else (lambda msg: print(msg, file=sys.stderr)),
         figures=figures,
         drive_point=args.drive_point,
     )
     return diagnosis, figures
+
+
+def _quiet(args: argparse.Namespace) -> bool:
+    """Return True when progress lines and bars are off (``--quiet`` or ``--no-progress``)."""
+    return bool(getattr(args, "quiet", False) or getattr(args, "no_progress", False))
+
+
+def _run_levels(args, interfaces, json_path, report) -> int:
+    """Run the level-trend path: every recording is a level; JSON (and report) staged by the caller."""
+    from exudyn_study.diagnose.levels import LevelSettings, diagnose_levels, write_level_report
+
+    settings = LevelSettings(
+        excitation=args.excitation,
+        period_s=args.period,
+        band_hz=None if args.band is None else tuple(args.band),
+        resolution_hz=args.resolution,
+    )
+    train = _read(args.train, "--train")
+    holdout = _read(args.holdout, "--holdout")
+    recs = list(train) + list(holdout)
+    labels = [Path(p).name for p in list(args.train) + list(args.holdout)]
+    state: dict = {}
+    diagnosis = diagnose_levels(
+        recs,
+        list(range(len(train))),
+        list(range(len(train), len(recs))),
+        labels=labels,
+        interfaces=None if interfaces is None else list(interfaces.values()),
+        settings=settings,
+        progress=not _quiet(args),
+        state=state,
+    )
+    if report is not None:
+        write_level_report(diagnosis, state, report)
+    diagnosis.write_json(json_path)
+    print(f"diagnosis: {diagnosis.summary} -> {args.json}")
+    for f in diagnosis.findings:
+        where = f.location.get("interface") or "not located"
+        before, after = f.fit["holdout_before"], f.fit["holdout_after"]
+        print(f"  {f.physics} at {where}: held-out error {before:.3g} -> {after:.3g}")
+    return 0

@@ -133,7 +133,9 @@ def _frf_overlay(data: Mapping, path: Path) -> Path | None:
             ax.set_title(f"{s}, {lab}\n({role}, {lv:.3g} {_unit(data)})", fontsize=8)
             ax.grid(True, which="both", alpha=0.3)
             if c == 0:
-                ax.set_ylabel("|T| (acc / drive acc)")
+                # a force drive gives accelerance (m/s^2 per N); a base drive a transmissibility
+                force = data.get("level_unit") == "N"
+                ax.set_ylabel("|H| (m/s$^2$/N)" if force else "|T| (acc / drive acc)")
             if r == len(sensors) - 1:
                 ax.set_xlabel("frequency (Hz)")
     axes[0, 0].legend(fontsize=7)

@@ -61,7 +61,8 @@ __all__ = [
 logger = logging.getLogger(__name__)
 
 #: quantity -> its SI unit (the only unit a Channel accepts)
-QUANTITY_UNITS: dict[str, str] = {"acceleration": "m/s^2", "displacement": "m", "force": "N"}
+#: ('voltage': a drive signal in V, e.g. an open-loop shaker amplifier's input, when no force was measured)
+QUANTITY_UNITS: dict[str, str] = {"acceleration": "m/s^2", "displacement": "m", "force": "N", "voltage": "V"}
 ROLES = ("response", "drive")
 DIRECTIONS = ("X", "Y", "Z", "")
 
@@ -93,11 +94,11 @@ class Channel:
     ----------
     name : str
         Channel name, unique within a recording (e.g. the sensor name ``'ARFVZ'``).
-    quantity : {'acceleration', 'displacement', 'force'}
+    quantity : {'acceleration', 'displacement', 'force', 'voltage'}
         Physical quantity.
     unit : str
-        SI unit of ``data``; must be the unit of ``quantity``: ``'m/s^2'``, ``'m'``
-        or ``'N'``.
+        SI unit of ``data``; must be the unit of ``quantity``: ``'m/s^2'``, ``'m'``,
+        ``'N'`` or ``'V'``.
     direction : {'X', 'Y', 'Z', ''}
         Positive measuring direction in the local rig coordinates ('' if none).
     position_m : tuple of 3 float or None
@@ -107,7 +108,9 @@ class Channel:
     data : array_like, shape (n_samples,)
         Samples in ``unit``; stored as a read-only float64 copy. Must be finite.
     role : {'response', 'drive'}, optional
-        'drive' for the actuator displacement, 'response' otherwise.
+        'drive' for the excitation: a base (table) displacement in m, a shaker force in N
+        (the force gauge at the drive point), a table acceleration, or a shaker's input
+        voltage in V when no force was measured; 'response' otherwise.
     sensitivity : float or None, optional
         Transducer sensitivity in V per SI unit (e.g. V/(m/s^2)), > 0, or None.
 
@@ -326,9 +329,21 @@ class Recording:
         drive: np.ndarray | None = None,
         drive_rate_hz: float | None = None,
         drive_name: str = "drive",
+        drive_quantity: str = "displacement",
+        drive_position_m: tuple[float, float, float] | None = None,
+        drive_direction: str = "Z",
         metadata: Mapping[str, str | int | float] | None = None,
     ) -> Recording:
         """Build a recording from time data ``x[n_channels, n_samples]``.
+
+        A base-excitation test gives the table displacement as ``drive``; a shaker test
+        gives the measured force (``drive_quantity='force'``, N) with the force gauge's
+        position, and the drive-point accelerometer among ``x`` at the same position
+        (the generic diagnosis finds the drive point by position)::
+
+            rec = Recording.from_arrays(acc, 400.0, ["DP", "A", "B"], positions_m=[p_dp, p_a, p_b],
+                                        drive=force_n, drive_quantity="force", drive_name="force",
+                                        drive_position_m=p_dp)
 
         Parameters
         ----------
@@ -346,11 +361,19 @@ class Recording:
         positions_m : sequence of (3-tuple or None), optional
             Position per channel in m; default None for all.
         drive : ndarray, shape (n_drive_samples,), optional
-            Actuator displacement in m, added as a channel with role 'drive'.
+            The excitation in the SI unit of ``drive_quantity``, added as a channel with
+            role 'drive'.
         drive_rate_hz : float, optional
             Rate of ``drive`` in Hz; default ``sample_rate_hz``.
         drive_name : str, optional
             Name of the drive channel (default 'drive').
+        drive_quantity : {'displacement', 'force', 'acceleration', 'voltage'}, optional
+            What ``drive`` is: a table displacement in m (default), a shaker force in N,
+            a table acceleration in m/s^2, or a shaker input voltage in V.
+        drive_position_m : (3-tuple) or None, optional
+            Position of the drive (the force gauge) in m; default None.
+        drive_direction : str, optional
+            Direction of the drive (default 'Z').
         metadata : mapping, optional
             Recording metadata.
 
@@ -381,10 +404,10 @@ class Recording:
             chans.append(
                 Channel(
                     drive_name,
-                    "displacement",
-                    "m",
-                    "Z",
-                    None,
+                    drive_quantity,
+                    QUANTITY_UNITS.get(drive_quantity, "?"),
+                    drive_direction,
+                    drive_position_m,
                     sample_rate_hz if drive_rate_hz is None else drive_rate_hz,
                     drive,
                     role="drive",

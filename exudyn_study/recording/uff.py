@@ -27,14 +27,14 @@ _UFF_SUFFIXES = (".uff", ".unv")
 
 
 #: UFF "specific data type" codes (record 9, field 1) for the quantities we carry
-_UFF_SPEC_TYPE = {"acceleration": 12, "displacement": 8, "force": 13}
+_UFF_SPEC_TYPE = {"acceleration": 12, "displacement": 8, "force": 13, "voltage": 1}  # 1: general
 
 
 _UFF_SPEC_TYPE_INV = {12: "acceleration", 8: "displacement", 9: "force", 13: "force"}
 
 
 #: (length, force) unit exponents of each quantity (record 9, fields 2-3)
-_UFF_EXPONENTS = {"acceleration": (1, 0), "displacement": (1, 0), "force": (0, 1)}
+_UFF_EXPONENTS = {"acceleration": (1, 0), "displacement": (1, 0), "force": (0, 1), "voltage": (0, 0)}
 
 
 _UFF_DIR = {"X": 1, "Y": 2, "Z": 3, "": 0}
@@ -56,6 +56,7 @@ _UNIT_LABELS = {
     "µm": ("displacement", 1e-6),
     "n": ("force", 1.0),
     "kn": ("force", 1e3),
+    "v": ("voltage", 1.0),
 }
 
 

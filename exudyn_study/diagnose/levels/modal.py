@@ -1,0 +1,170 @@
+"""The modal model of the level-trend diagnosis and the per-mode refit (reference and level stages).
+
+``H(w) = sum_r R_r / (jw - p_r) + conj(R_r) / (jw - conj(p_r)) + lower + upper (jw)^2`` per channel
+(accelerance form, one input). :func:`fit_mode` refits one mode's pole and residues around the mode
+with the others held: variable projection (residues and a complex offset per channel linear, the
+pole nonlinear and bounded to the mode's window), every line weighted by the inverse of its noise
+and distortion level; standard deviations from the Jacobian, scaled by the reduced chi-square
+when above 1.
+"""
+
+from __future__ import annotations
+
+from dataclasses import dataclass
+
+import numpy as np
+import scipy.optimize
+
+from exudyn_study.diagnose.levels.frf import LevelFRF
+
+__all__ = ["ReferenceModel", "mode_term", "synthesise", "mode_window", "fit_mode", "pole_of"]
+
+
+@dataclass(frozen=True, eq=False)
+class ReferenceModel:
+    """Linear modal model of the reference level (accelerance form, one input).
+
+    Attributes
+    ----------
+    poles : ndarray of complex, shape (n_modes,)
+        rad/s, upper half plane, ascending frequency.
+    residues : ndarray of complex, shape (n_out, n_modes)
+        ``H(w) = sum_r R_r / (jw - p_r) + conj(R_r) / (jw - conj(p_r)) + lower + upper (jw)^2``.
+    lower, upper : ndarray, shape (n_out,)
+        Residual terms.
+    channels : tuple of str
+    band_hz : (float, float)
+    check : dict
+        Per channel: ``relative_error``, ``noise_level`` (relative), ``tolerance``, ``passed``.
+    modal_mass_kg : ndarray, shape (n_modes,) or None
+        From the drive-point residues (force drive with a drive-point accelerometer).
+    degenerate : tuple of str
+        One message per mode whose mass is degenerate.
+    """
+
+    poles: np.ndarray
+    residues: np.ndarray
+    lower: np.ndarray
+    upper: np.ndarray
+    channels: tuple[str, ...]
+    band_hz: tuple[float, float]
+    check: dict
+    modal_mass_kg: np.ndarray | None
+    degenerate: tuple[str, ...]
+
+    @property
+    def frequency_hz(self) -> np.ndarray:
+        """Undamped natural frequencies in Hz."""
+        return np.abs(self.poles) / (2 * np.pi)
+
+    @property
+    def damping_ratio(self) -> np.ndarray:
+        """Damping ratios (-)."""
+        return -self.poles.real / np.abs(self.poles)
+
+
+def mode_term(residue: np.ndarray, pole: complex, freq_hz: np.ndarray) -> np.ndarray:
+    """One mode's contribution ``R / (jw - p) + conj(R) / (jw - conj(p))``, shape (n_out, n_freq)."""
+    jw = 2j * np.pi * np.asarray(freq_hz, float)
+    r = np.asarray(residue)[:, None]
+    return r / (jw - pole) + np.conj(r) / (jw - np.conj(pole))
+
+
+def synthesise(model: ReferenceModel, freq_hz: np.ndarray, poles: np.ndarray | None = None) -> np.ndarray:
+    """FRFs of the model at ``freq_hz`` (optionally with other poles, same residues), (n_out, n_freq)."""
+    f = np.asarray(freq_hz, float)
+    jw = 2j * np.pi * f
+    p = model.poles if poles is None else np.asarray(poles)
+    h = (
+        model.lower[:, None]
+        + model.upper[:, None] * jw**2
+        + np.zeros((model.residues.shape[0], f.size), complex)
+    )
+    for k in range(p.size):
+        h = h + mode_term(model.residues[:, k], p[k], f)
+    return h
+
+
+def mode_window(model: ReferenceModel, r: int, freq_hz: np.ndarray) -> np.ndarray:
+    """Lines around mode ``r``: +-3 half-power bandwidths (at least +-5 lines), not past the neighbours."""
+    f = model.frequency_hz
+    z = model.damping_ratio
+    step = float(np.median(np.diff(freq_hz)))
+    half = max(3.0 * 2.0 * z[r] * f[r], 5.0 * step)
+    lo, hi = f[r] - half, f[r] + half
+    if r > 0:
+        lo = max(lo, 0.5 * (f[r - 1] + f[r]))
+    if r < f.size - 1:
+        hi = min(hi, 0.5 * (f[r] + f[r + 1]))
+    m = (freq_hz >= lo) & (freq_hz <= hi)
+    if m.sum() < 7:  # too close to a neighbour: the nearest 7 lines
+        m = np.zeros(freq_hz.size, bool)
+        m[np.argsort(np.abs(freq_hz - f[r]))[:7]] = True
+    return m
+
+
+def _basis(pole: complex, jw: np.ndarray) -> np.ndarray:
+    """Real-parameter basis (Re R, Im R, Re a, Im a) as complex columns, shape (n_freq, 4)."""
+    a = 1.0 / (jw - pole)
+    b = 1.0 / (jw - np.conj(pole))
+    return np.stack([a + b, 1j * a - 1j * b, np.ones_like(jw), 1j * np.ones_like(jw)], axis=1)
+
+
+def _solve(pole, jw, h, w):
+    """Weighted LS of the residue and offset for every channel; returns (coef (n_out, 4), wres, cov list)."""
+    bas = _basis(pole, jw)
+    res, coefs, covs = [], [], []
+    for c in range(h.shape[0]):
+        a = bas * w[c][:, None]
+        a_r = np.concatenate([a.real, a.imag])
+        b = h[c] * w[c]
+        b_r = np.concatenate([b.real, b.imag])
+        x, *_ = np.linalg.lstsq(a_r, b_r, rcond=None)
+        coefs.append(x)
+        res.append(b_r - a_r @ x)
+        covs.append(np.linalg.pinv(a_r.T @ a_r))
+    return np.array(coefs), np.concatenate(res), covs
+
+
+def pole_of(theta) -> complex:
+    """Pole in rad/s of (frequency in Hz, damping ratio)."""
+    f, z = theta
+    w = 2 * np.pi * f
+    return complex(-z * w, w * np.sqrt(max(1 - z * z, 1e-12)))
+
+
+def fit_mode(model: ReferenceModel, r: int, frf: LevelFRF):
+    """Refit mode ``r`` on one level; returns (f, f_std, zeta, zeta_std, residues, residue_std, chi2)."""
+    m = mode_window(model, r, frf.freq_hz)
+    f = frf.freq_hz[m]
+    jw = 2j * np.pi * f
+    others = synthesise(model, f) - mode_term(model.residues[:, r], model.poles[r], f)
+    h = frf.H[:, m] - others
+    w = 1.0 / np.maximum(frf.total_sigma[:, m], 1e-12 * np.abs(frf.H[:, m]).max())
+    theta0 = np.array(
+        [np.clip(model.frequency_hz[r], f[0], f[-1]), min(max(model.damping_ratio[r], 1e-4), 0.2)]
+    )
+    scale = np.array([theta0[0] * 1e-3, theta0[1] * 0.1])
+    # the pole stays inside the mode's window and its damping in (0, 30 %]: a mode that left the
+    # window (or drowned in noise) ends at a bound and is flagged by its large uncertainty
+    lo = np.array([(f[0] - theta0[0]) / scale[0], (1e-5 - theta0[1]) / scale[1]])
+    hi = np.array([(f[-1] - theta0[0]) / scale[0], (0.3 - theta0[1]) / scale[1]])
+
+    def fun(x):
+        return _solve(pole_of(theta0 + x * scale), jw, h, w)[1]
+
+    sol = scipy.optimize.least_squares(fun, np.zeros(2), bounds=(lo, hi), method="trf")
+    theta = theta0 + sol.x * scale
+    coef, resid, covs = _solve(pole_of(theta), jw, h, w)
+    dof = max(resid.size - 2 - 4 * h.shape[0], 1)
+    chi2 = float(resid @ resid / dof)
+    s2 = max(chi2, 1.0)
+    jac = sol.jac / scale
+    try:
+        cov = np.linalg.inv(jac.T @ jac) * s2
+        std = np.sqrt(np.maximum(np.diag(cov), 0.0))
+    except np.linalg.LinAlgError:
+        std = np.array([np.inf, np.inf])
+    residues = coef[:, 0] + 1j * coef[:, 1]
+    rstd = np.array([np.sqrt(max(cv[0, 0] + cv[1, 1], 0.0) * s2) for cv in covs])
+    return theta[0], std[0], theta[1], std[1], residues, rstd, chi2
