@@ -663,13 +663,19 @@ def welch_expectation(
     # (2 |Re lambda| / 2 pi) spans less than a line: at least four samples per bandwidth
     lines_bw = float(np.min(np.abs(result.poles.real))) / (np.pi * df) if result.poles.size else 1.0
     oversample = int(np.clip(np.ceil(4.0 / max(min(lines_bw, 1.0), 1e-3)), 4, 16))
-    off, k = leakage.kernel(oversample=oversample)
-    grid = f[:, None] + off[None, :] * df  # [nf, n_off]
-    h = synthesise(result, grid.ravel()).reshape(*result.residues.shape[:2], *grid.shape)
-    e_h = h @ k
+    off, k = leakage.kernel(oversample=oversample, half_width=4)
+    # the model on one fine grid (step df / oversample) covering every line's kernel; line l
+    # uses the samples l * oversample + j, j = 0 .. n_off - 1
+    half = (off.size - 1) // 2
+    lines = np.rint((f - f[0]) / df).astype(int) if f.size else np.zeros(0, int)
+    fine = f[0] + (np.arange(lines[-1] * oversample + off.size) - half) * (df / oversample) \
+        if f.size else np.zeros(0)
+    h_fine = synthesise(result, fine)
+    idx = lines[:, None] * oversample + np.arange(off.size)[None, :]  # [nf, n_off]
+    e_h = h_fine[:, :, idx] @ k
     if estimator == "H1":
         return e_h
-    e_hh = (np.abs(h) ** 2) @ k
+    e_hh = (np.abs(h_fine) ** 2)[:, :, idx] @ k
     if estimator == "Hv":
         return e_h / np.maximum(np.abs(e_h), np.finfo(float).tiny) * np.sqrt(e_hh)
     if estimator == "H2":
@@ -696,8 +702,9 @@ def fit_modal_model(
     With ``leakage`` the pole terms are leakage-aware (see :class:`Leakage`); for
     H2 and Hv, whose expectation is not linear in the FRF, the data are first
     mapped to their H1 equivalent with the current model,
-    ``H_meas * E[H1] / E[H_est]`` (:func:`welch_expectation`), and the fit is
-    repeated ``iterations`` times (a fixed-point iteration on the bias).
+    ``H_meas * E[H1] / E[H_est]`` (:func:`welch_expectation`), and the residues are
+    refitted ``iterations`` times (a fixed-point iteration on the bias), the poles
+    refined again on the last of them.
 
     Parameters
     ----------
@@ -737,7 +744,8 @@ def fit_modal_model(
     res = lsfd(frf, freq_hz, p, weights=weights, **kw)
     if leakage is not None and estimator in ("H2", "Hv"):
         sel = band_mask(freq_hz, band_hz)
-        for _ in range(max(0, int(iterations))):
+        n_it = max(0, int(iterations))
+        for it in range(n_it):
             e1 = welch_expectation(res, freq_hz[sel], leakage, "H1")
             ee = welch_expectation(res, freq_hz[sel], leakage, estimator)
             with np.errstate(invalid="ignore", divide="ignore"):
@@ -752,7 +760,9 @@ def fit_modal_model(
                     w_eq[:, :, sel] = np.nan_to_num(w_eq[:, :, sel] / np.abs(corr))
             elif weights is not None:
                 w_eq = weights
-            p = refine_poles(h_eq, freq_hz, p, weights=w_eq, **kw) if refine else p
+            # the map converges with the residues; the poles are refined on the last pass
+            if refine and it == n_it - 1:
+                p = refine_poles(h_eq, freq_hz, p, weights=w_eq, **kw)
             res = lsfd(h_eq, freq_hz, p, weights=w_eq, **kw)
         # report the fit against the data as measured
         syn = welch_expectation(res, freq_hz[sel], leakage, estimator)
