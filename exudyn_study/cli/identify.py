@@ -26,15 +26,20 @@ logger = logging.getLogger(__name__)
 
 def configure(parser: argparse.ArgumentParser) -> None:
     """Add the ``identify`` arguments to ``parser``."""
-    parser.add_argument("file", metavar="FILE", help="recording: .h5/.hdf5 or UFF58 .uff/.unv")
+    parser.add_argument("file", metavar="FILE",
+                        help="recording (.h5/.hdf5 or UFF58 time data .uff/.unv), or measured FRFs "
+                             "(UFF58 function type 4, or an HDF5 file with an 'frf' group)")
     parser.add_argument("--reference", "-r", required=True, nargs="+", metavar="NAME",
-                        help="reference channel(s), e.g. ARFVZ (several: one estimate each)")
+                        help="reference channel(s), e.g. ARFVZ (several: one estimate each); for an "
+                             "FRF file the reference DOF as NODE:+DIR, e.g. 1:+Z")
     parser.add_argument("--responses", nargs="+", metavar="NAME",
                         help="response channels (default: all response channels)")
     parser.add_argument("--band", nargs=2, type=float, metavar=("FMIN", "FMAX"),
-                        help="frequency band in Hz (default: where coherence >= 0.5)")
-    parser.add_argument("--resolution", type=float, default=0.2, metavar="HZ",
-                        help="FRF resolution in Hz (default 0.2)")
+                        help="frequency band in Hz (default: where the reference is excited; for "
+                             "FRF files where the coherence is >= 0.5)")
+    parser.add_argument("--resolution", type=float, default=None, metavar="HZ",
+                        help="FRF resolution in Hz (default: chosen from the record length and "
+                             "the modes of a survey pass; not for FRF files)")
     parser.add_argument("--estimator", choices=("H1", "H2", "Hv"), default="Hv",
                         help="FRF estimator (default Hv)")
     parser.add_argument("--max-order", type=int, default=60, metavar="N",
@@ -62,16 +67,24 @@ def run(args: argparse.Namespace) -> int:
         raise InputError(f"--plots {args.plots!r}: exists and is not a directory")
     if args.max_order < 4:
         raise InputError(f"--max-order {args.max_order}: expected at least 4")
-    rec = read_recording(args.file)
-    with warnings.catch_warnings(record=True) as caught:
-        warnings.simplefilter("always", UserWarning)
-        result = identify_recording(
-            rec, args.reference, responses=args.responses, band_hz=args.band,
-            resolution_hz=args.resolution, estimator=args.estimator,
-            orders=range(2, args.max_order + 1), pin_hz=args.pin, drop_hz=args.drop,
-            leakage_correction=not args.no_leakage_correction,
-            metadata={"source_file": str(args.file)},
-        )
+    from exudyn_study.identify.frf_io import is_frf_file
+
+    rec = None
+    if is_frf_file(args.file):
+        result, caught = _identify_frf_file(args)
+    else:
+        rec = read_recording(args.file)
+        with warnings.catch_warnings(record=True) as caught:
+            warnings.simplefilter("always", UserWarning)
+            result = identify_recording(
+                rec, args.reference, responses=args.responses, band_hz=args.band,
+                resolution_hz=args.resolution, estimator=args.estimator,
+                orders=range(2, args.max_order + 1), pin_hz=args.pin, drop_hz=args.drop,
+                leakage_correction=not args.no_leakage_correction,
+                metadata={"source_file": str(args.file)},
+            )
+    for what, why in result.model.metadata.get("chosen", {}).items():
+        print(f"{what} chosen: {why}")
     for w in caught:
         print(f"warning: {w.message}")
     write_modes_json(result.model, out)
@@ -93,12 +106,46 @@ def run(args: argparse.Namespace) -> int:
     if args.plots is not None:
         from exudyn_study.identify.plots import plot_all
 
-        chans = {c.name: c for c in rec.channels}
+        chans = {c.name: c for c in rec.channels} if rec is not None else {}
         pos = {n: c.position_m for n, c in chans.items() if c.position_m is not None}
         dirs = {n: c.direction for n, c in chans.items()}
         for p in plot_all(result, args.plots, positions_m=pos, directions=dirs):
             print(f"wrote {p}")
     return 0
+
+
+def _identify_frf_file(args):
+    """Identify measured FRFs read from ``args.file`` (UFF58 type 4 or HDF5)."""
+    import dataclasses
+
+    from exudyn_study.identify.frf_io import read_frf_file
+    from exudyn_study.identify.pipeline import identify_frf
+
+    if args.resolution is not None:
+        raise InputError(f"--resolution {args.resolution:g}: {args.file!r} holds FRFs at a fixed "
+                         "resolution; drop --resolution (or identify the time data)")
+    frf = read_frf_file(args.file)
+    unknown = [r for r in args.reference if r not in frf.inputs]
+    if unknown:
+        raise InputError(f"--reference {' '.join(unknown)}: not a reference of the FRF file; its "
+                         f"references are {', '.join(frf.inputs)}")
+    cols = [frf.inputs.index(r) for r in args.reference]
+    rows = list(range(len(frf.outputs)))
+    if args.responses:
+        missing = [r for r in args.responses if r not in frf.outputs]
+        if missing:
+            raise InputError(f"--responses {' '.join(missing)}: not in the FRF file; its responses "
+                             f"are {', '.join(frf.outputs[:10])}{' ...' if len(frf.outputs) > 10 else ''}")
+        rows = [frf.outputs.index(r) for r in args.responses]
+    frf = dataclasses.replace(frf, H=frf.H[rows][:, cols], coherence=frf.coherence[rows][:, cols],
+                              outputs=tuple(frf.outputs[i] for i in rows),
+                              inputs=tuple(frf.inputs[j] for j in cols))
+    with warnings.catch_warnings(record=True) as caught:
+        warnings.simplefilter("always", UserWarning)
+        result = identify_frf(frf, band_hz=args.band, orders=range(2, args.max_order + 1),
+                              pin_hz=args.pin, drop_hz=args.drop,
+                              metadata={"source_file": str(args.file), "input": "measured FRFs"})
+    return result, caught
 
 
 def _median(x):
