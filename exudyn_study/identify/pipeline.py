@@ -27,6 +27,7 @@ from exudyn_study.identify.resolution import (
     resolution_warnings,
 )
 from exudyn_study.identify.selection import Selection, select_modes
+from exudyn_study.identify.selfcheck import self_check
 from exudyn_study.infra.blas import one_blas_thread
 
 __all__ = ["IdentificationResult", "identify_frf", "identify", "identify_recording",
@@ -98,8 +99,9 @@ def identify_frf(
     selection: dict | None = None,
     duration_s: float | None = None,
     metadata: dict | None = None,
+    check: bool = True,
 ) -> IdentificationResult:
-    """Identify modes from FRFs: PolyMAX, automatic selection, LSFD.
+    """Identify modes from FRFs: PolyMAX, automatic selection, LSFD, self-check.
 
     Parameters
     ----------
@@ -132,6 +134,11 @@ def identify_frf(
         Record length in s, for the resolution suggestion.
     metadata : dict, optional
         Extra metadata for the model.
+    check : bool, optional
+        Run the self-check after LSFD (default True): where the synthesised FRFs misfit the
+        data beyond their noise, look for the missing pole and add it
+        (:func:`~exudyn_study.identify.selfcheck.self_check`); what was added and where the
+        fit stays poor goes to the metadata under ``'self_check'``.
 
     Returns
     -------
@@ -163,13 +170,28 @@ def identify_frf(
     if weighting not in ("coherence", "none"):
         raise InputError(f"weighting {weighting!r}: expected 'coherence' or 'none'")
     weights = frf_weights(frf) if weighting == "coherence" and frf.n_averages > 1 else None
-    fit = fit_modal_model(frf.H, frf.freq_hz, sel.poles, band_hz=band, frf_form=frf_form,
-                          leakage=leak, estimator=frf.estimator, refine=refine,
-                          weights=weights)
+    def refit(start_poles):
+        return fit_modal_model(frf.H, frf.freq_hz, start_poles, band_hz=band, frf_form=frf_form,
+                               leakage=leak, estimator=frf.estimator, refine=refine,
+                               weights=weights)
+
+    fit = refit(sel.poles)
+    clusters = list(sel.modes)
+    if check:
+        report, fit, extra = self_check(frf, fit, poles, sel, band, refit,
+                                        exclude_hz=[float(x) for x in drop_hz])
+        clusters += extra
+        meta["self_check"] = report.as_dict()
+        for a in report.added:
+            logger.info("self-check added %.3f Hz / %.2f %% (%s): misfit in %.2f-%.2f Hz %.1f -> %.1f",
+                        a["frequency_hz"], 100 * a["damping_ratio"], a["source"], *a["band_hz"],
+                        a["misfit_before"], a["misfit_after"])
+        if report.poor_fit_bands_hz:
+            logger.info("self-check: poor fit in %s Hz", report.poor_fit_bands_hz)
     names = frf.outputs or tuple(f"ch{i}" for i in range(frf.H.shape[0]))
     phase_coll = mpc(fit.shapes)
     modes = []
-    for k, c in enumerate(sel.modes):
+    for k, c in enumerate(clusters):
         shape = {n: complex(v) for n, v in zip(names, fit.shapes[:, k], strict=True)}
         modes.append(Mode(
             frequency_hz=float(fit.frequency_hz[k]),
@@ -179,6 +201,9 @@ def identify_frf(
             mpc=float(phase_coll[k]),
             shape=shape,
         ))
+    order = np.argsort([m.frequency_hz for m in modes])
+    modes = [modes[i] for i in order]
+    fit = _sorted_fit(fit, order)
     model = ModalModel(tuple(modes), meta)
     msgs = tuple(resolution_warnings(model.frequency_hz, model.damping_ratio,
                                      frf.resolution_hz, duration_s=duration_s))
@@ -190,7 +215,12 @@ def identify_frf(
     return IdentificationResult(model, frf, poles, sel, fit, band, msgs)
 
 
-@one_blas_thread
+def _sorted_fit(fit: LSFDResult, order: np.ndarray) -> LSFDResult:
+    """Return the fit with its modes in the order ``order`` (poles, residues, shapes, ...)."""
+    return replace(fit, poles=fit.poles[order], residues=fit.residues[:, :, order],
+                   shapes=fit.shapes[:, order], participation=fit.participation[:, order])
+
+
 def identify(
     reference: np.ndarray,
     response: np.ndarray,
@@ -222,7 +252,9 @@ def identify(
         FRF resolution in Hz. Default: chosen from the data, a survey pass at the finest
         resolution that keeps 30 averages finds the modes, then
         :func:`~exudyn_study.identify.resolution.choose_resolution` sets the resolution
-        from their narrowest bandwidth, their closest spacing and the record length.
+        from their narrowest bandwidth, their closest spacing and the record length; when
+        the modes identified at that resolution ask for a finer one (a close pair the
+        survey saw as one peak), the identification is repeated once at it.
     estimator : {'H1', 'H2', 'Hv'}, optional
         FRF estimator (default 'Hv').
     band_hz : (float, float), optional
@@ -277,6 +309,20 @@ def identify(
         kwargs["metadata"] = meta
     kwargs.setdefault("duration_s", n / sample_rate_hz)
     result = identify_frf(frf, band_hz=band_hz, **kwargs)
+    if "resolution_hz" in chosen and len(result.model):
+        # the survey may see a close pair as one peak: when the modes found at the chosen
+        # resolution ask for a finer one the record supports, estimate and identify again
+        adv = choose_resolution(result.model.frequency_hz, result.model.damping_ratio, duration,
+                                overlap=overlap)
+        if adv.resolution_hz < 0.99 * frf.resolution_hz:
+            chosen["resolution_hz"] = adv.message + " (refined after the first identification)"
+            logger.info("resolution_hz refined: %s", adv.message)
+            frf = estimate_frf(reference, response, sample_rate_hz, resolution_hz=adv.resolution_hz,
+                               estimator=estimator, overlap=overlap, window=window, mimo=mimo,
+                               fmax_hz=min(nyq, band_hz[1] * 1.2),
+                               outputs=tuple(outputs), inputs=tuple(inputs))
+            kwargs["metadata"]["chosen"] = chosen
+            result = identify_frf(frf, band_hz=band_hz, **kwargs)
     msg = None if mimo else collinear_references_warning(reference, sample_rate_hz, frf, result.band_hz,
                                                          names=tuple(inputs))
     if msg:
