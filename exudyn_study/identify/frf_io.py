@@ -47,10 +47,12 @@ def _dof_name(node, direction) -> str:
 def _uff_sets(path: Path):
     import pyuff
 
+    from exudyn_study.recording.uff_ascii import read_sets
+
     try:
         uff = pyuff.UFF(str(path))
         types = [int(t) for t in uff.get_set_types()]
-        return [uff.read_sets(i) if t == 58 else {"type": t} for i, t in enumerate(types)]
+        return read_sets(uff, path, types)
     except Exception as exc:  # pyuff raises plain Exception on malformed files
         raise InputError(f"FRF file {str(path)!r} is not a readable UFF file ({exc})") from exc
 
