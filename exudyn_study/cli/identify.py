@@ -1,13 +1,17 @@
-r"""``exudyn-study identify``: modes from a recording (HDF5 or UFF58) to a modes JSON.
+r"""``exudyn-study identify``: modes from a recording or measured FRFs to a modes JSON.
 
-Example::
+Examples::
 
+    exudyn-study identify run.h5 --reference ARFVZ --json modes.json
     exudyn-study identify run.h5 --reference ARFVZ --band 3 50 --resolution 0.2 \
         --estimator Hv --json modes.json --plots figs/
+    exudyn-study identify frfs.uff --reference 1:+Z --json modes.json
 
-Bad input (unknown reference, mixed rates, NaN samples, a band beyond Nyquist, a
-record too short for the resolution, a UFF without type-58 sets) is reported on
-one line with exit code 2, and nothing is written.
+Without ``--band``/``--resolution`` both are chosen from the data and printed. Bad input
+(unknown reference, mixed rates, NaN samples, a band beyond Nyquist, a record too short
+for the resolution, a UFF without type-58 sets, an FRF file without reference records,
+mixing FRFs and time data, or with FRFs on different grids) is reported on one line with
+exit code 2, and nothing is written.
 """
 
 from __future__ import annotations
