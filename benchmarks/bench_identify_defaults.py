@@ -22,8 +22,14 @@ then its LSFD for the shapes. Its figures are therefore an upper bound of what a
 Seeds: ``--seeds A B`` (development range 0..29 by default) and ``--held-out C D`` (a range
 never looked at while developing, reported separately).
 
+Speed (``--speed``): one case of seed 2 made 200 s long (24 responses + reference, 1 kHz),
+identified with the defaults three times: wall and CPU time of the best run (FRF estimation,
+survey pass, PolyMAX, selection, LSFD, self-check; BLAS on one thread); and the time
+``read_recording`` takes for the same recording as binary and as ASCII UFF58.
+
 Run:  nice -n 5 python benchmarks/bench_identify_defaults.py
       nice -n 5 python benchmarks/bench_identify_defaults.py --seeds 0 30 --held-out 1000 1020
+      nice -n 5 python benchmarks/bench_identify_defaults.py --speed --seeds 0 0
       (``--no-sdypy``, ``--no-results``)
 
 Figures go to ``benchmarks/results/bench_identify_defaults.json``.
@@ -193,21 +199,71 @@ def run_range(seeds, with_sdypy: bool, label: str) -> dict:
     return out
 
 
+def speed(repeats: int = 3) -> dict:
+    """Time the defaults on one 200 s, 25-channel, 1 kHz case and the UFF58 reads (see notes)."""
+    import dataclasses
+    import tempfile
+    from pathlib import Path
+
+    import pyuff
+
+    from exudyn_study.recording import read_recording, write_recording
+
+    case = dataclasses.replace(random_case(2), duration_s=200.0)
+    ref, resp = case.simulate()
+    rec = to_recording(case.system, ref, resp)
+    runs = []
+    for _ in range(repeats):
+        t0, c0 = time.perf_counter(), time.process_time()
+        with warnings.catch_warnings():
+            warnings.simplefilter("ignore", UserWarning)
+            identify_recording(rec, case.system.reference)
+        runs.append((time.perf_counter() - t0, time.process_time() - c0))
+    out = {"identify_wall_s": min(r[0] for r in runs), "identify_cpu_s": min(r[1] for r in runs),
+           "channels": 1 + resp.shape[0], "duration_s": 200.0}
+    with tempfile.TemporaryDirectory() as d:
+        binary = Path(d) / "rec_binary.uff"
+        ascii_ = Path(d) / "rec_ascii.uff"
+        write_recording(rec, binary)
+        sets = pyuff.UFF(str(binary)).read_sets()
+        for st in sets:
+            if st["type"] == 58:
+                st["binary"] = 0
+        pyuff.UFF(str(ascii_)).write_sets(sets, mode="overwrite")
+        for name, path in (("binary", binary), ("ascii", ascii_)):
+            t0 = time.perf_counter()
+            read_recording(path)
+            out[f"read_uff_{name}_s"] = time.perf_counter() - t0
+            out[f"uff_{name}_mb"] = path.stat().st_size / 1e6
+    print(f"speed: identification of a 200 s, {out['channels']}-channel, 1 kHz case: wall "
+          f"{out['identify_wall_s']:.2f} s, CPU {out['identify_cpu_s']:.2f} s (best of {repeats}); "
+          f"read_recording binary UFF58 {out['uff_binary_mb']:.0f} MB {out['read_uff_binary_s']:.2f} s, "
+          f"ASCII {out['uff_ascii_mb']:.0f} MB {out['read_uff_ascii_s']:.2f} s")
+    return out
+
+
 def main() -> None:
     ap = argparse.ArgumentParser(description=__doc__.splitlines()[0])
     ap.add_argument("--seeds", type=int, nargs=2, default=[0, 30], metavar=("FIRST", "STOP"))
     ap.add_argument("--held-out", type=int, nargs=2, default=None, metavar=("FIRST", "STOP"))
     ap.add_argument("--no-sdypy", action="store_true")
     ap.add_argument("--no-results", action="store_true")
+    ap.add_argument("--speed", action="store_true", help="also time one 200 s case and the UFF reads")
     args = ap.parse_args()
     from results import start_run, write_results  # benchmarks/results.py, beside this script
 
     run = start_run()
-    figures = {"development": run_range(range(*args.seeds), not args.no_sdypy, "development")}
+    figures = {}
+    if args.speed:
+        figures["speed"] = speed()
+    if args.seeds[1] > args.seeds[0]:
+        figures["development"] = run_range(range(*args.seeds), not args.no_sdypy, "development")
     if args.held_out:
         figures["held_out"] = run_range(range(*args.held_out), not args.no_sdypy, "held-out")
     if not args.no_results:
-        print(f"key figures {write_results('bench_identify_defaults', figures, args=args, start=run)}")
+        case = "speed" if args.speed and "development" not in figures else None
+        path = write_results("bench_identify_defaults", figures, args=args, case=case, start=run)
+        print(f"key figures {path}")
 
 
 if __name__ == "__main__":

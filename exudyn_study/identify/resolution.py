@@ -261,7 +261,9 @@ def choose_resolution(frequency_hz, damping_ratio, duration_s: float, *,
     ze = np.asarray(damping_ratio, float)
     ok = np.isfinite(fr) & np.isfinite(ze) & (ze > 0) & (fr > 0)
     fr, ze = fr[ok], ze[ok]
-    floor = _nice_up(_finest_for_averages(duration_s, MIN_AVERAGES, overlap))
+    # the finest resolution that keeps MIN_AVERAGES, exact (not rounded to a 1-2-5 value, which
+    # would give away up to a factor 2.5 of resolution where the record is what limits it)
+    floor = _finest_for_averages(duration_s, MIN_AVERAGES, overlap)
     if fr.size == 0:
         return ResolutionAdvice(survey, np.nan, _averages(duration_s, survey, overlap), True,
                                 f"{survey:g} Hz ({SURVEY_AVERAGES} averages): no mode to resolve")
@@ -277,8 +279,8 @@ def choose_resolution(frequency_hz, damping_ratio, duration_s: float, *,
     res = max(nice, floor)
     n_avg = _averages(duration_s, res, overlap)
     lines = float(np.min(2 * ze * fr)) / res
-    msg = (f"{res:g} Hz for {why}" if feasible else
-           f"{res:g} Hz, the finest that keeps {MIN_AVERAGES} averages ({nice:g} Hz would give {why})")
+    msg = (f"{res:.4g} Hz for {why}" if feasible else
+           f"{res:.4g} Hz, the finest that keeps {MIN_AVERAGES} averages ({nice:g} Hz would give {why})")
     return ResolutionAdvice(res, lines, n_avg, feasible,
                             f"{msg}: {lines:.1f} lines in the narrowest bandwidth, {n_avg} averages "
                             f"over {duration_s:g} s")
