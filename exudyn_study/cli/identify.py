@@ -89,6 +89,14 @@ def run(args: argparse.Namespace) -> int:
             )
     for what, why in result.model.metadata.get("chosen", {}).items():
         print(f"{what} chosen: {why}")
+    check = result.model.metadata.get("self_check", {})
+    for a in check.get("added", []):
+        print(f"self-check added {a['frequency_hz']:.3f} Hz / {100 * a['damping_ratio']:.2f} % "
+              f"({a['source']}): misfit in {a['band_hz'][0]:.2f}-{a['band_hz'][1]:.2f} Hz "
+              f"{a['misfit_before']:.1f} -> {a['misfit_after']:.1f} times the noise level")
+    if check.get("poor_fit_bands_hz"):
+        print("self-check: the fit stays poor in " + ", ".join(
+            f"{lo:.2f}-{hi:.2f} Hz" for lo, hi in check["poor_fit_bands_hz"]))
     for w in caught:
         print(f"warning: {w.message}")
     write_modes_json(result.model, out)

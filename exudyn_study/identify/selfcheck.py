@@ -17,7 +17,9 @@ For each misfit band (worst first) two candidate poles are tried:
 
 The model is refitted as a whole with each; the candidate kept is the one that lowers the
 band's misfit most, by at least half, without raising the median fit error, with a physical
-damping and a shape that is not a copy of a neighbour's within a half-power bandwidth. What was
+damping (a half-power bandwidth of at least a quarter line: a narrower pole fits a noise spike),
+a real-mode-like shape (MPC >= 0.7) that is not a copy of a neighbour's within a half-power
+bandwidth. What was
 added, from where and by how much it improved the fit is reported; bands where nothing could be
 added are reported as poorly fitted.
 """
@@ -32,7 +34,7 @@ import numpy as np
 from exudyn_study.errors import InputError
 from exudyn_study.identify.frf import FRF, frf_weights
 from exudyn_study.identify.lsfd import LSFDResult
-from exudyn_study.identify.mac import mac
+from exudyn_study.identify.mac import mac, mpc
 from exudyn_study.identify.polymax import Poles, pole_to_modal, polymax
 from exudyn_study.identify.selection import Cluster, Selection, select_modes
 
@@ -70,7 +72,10 @@ class SelfCheck:
 def _line_misfit(frf: FRF, fit: LSFDResult, sel: np.ndarray) -> np.ndarray:
     """Channel mean of the squared weighted residual per line, relative to its band median."""
     h = frf.H[:, :, sel]
-    if frf.n_averages > 1 and np.any(frf.coherence[:, :, sel] < 0.9999):
+    if np.any(frf.coherence[:, :, sel] < 0.9999):
+        # the coherence sets the relative noise of every line (the averages only scale it,
+        # and the misfit is taken relative to its median): measured FRFs from a file that
+        # carry the coherence but not the number of averages are weighted the same way
         w = frf_weights(frf)[:, :, sel]
     else:
         rms = np.sqrt(np.mean(np.abs(h) ** 2, axis=-1, keepdims=True))
@@ -134,6 +139,8 @@ def self_check(
     max_added: int = 3,
     max_damping: float = 0.2,
     exclude_hz: Sequence[float] = (),
+    min_lines: float = 0.25,
+    min_mpc: float = 0.7,
 ) -> tuple[SelfCheck, LSFDResult, list[Cluster]]:
     """Close the loop after LSFD: add missing poles where the model misfits beyond the noise.
 
@@ -161,6 +168,11 @@ def self_check(
         Largest damping ratio of an added mode (default 0.2).
     exclude_hz : sequence of float, optional
         Frequencies (Hz) the user dropped: no mode is added within 2 % of them.
+    min_lines : float, optional
+        Narrowest half-power bandwidth of an added mode, in spectral lines (default 0.25):
+        a narrower pole fits a noise spike of one or two lines, not a mode.
+    min_mpc : float, optional
+        Lowest modal phase collinearity of an added mode's shape (default 0.7).
 
     Returns
     -------
@@ -192,8 +204,11 @@ def self_check(
             except InputError:
                 continue
             band_after = float(np.mean(_line_misfit(frf, new, sel)[i0:i1 + 1]))
+            f_new, z_new = pole_to_modal(new.poles[-1:])
             ok = (band_after <= 0.5 * before
-                  and np.median(new.fit_error) <= 1.05 * np.median(fit.fit_error))
+                  and np.median(new.fit_error) <= 1.05 * np.median(fit.fit_error)
+                  and 2 * z_new[0] * f_new[0] >= min_lines * frf.resolution_hz
+                  and float(mpc(new.shapes[:, -1:])[0]) >= min_mpc)
             if ok and (best is None or band_after < best[0]):
                 best = (band_after, source, cand, new)
         if best is None:
