@@ -170,6 +170,7 @@ def identify_frf(
     if weighting not in ("coherence", "none"):
         raise InputError(f"weighting {weighting!r}: expected 'coherence' or 'none'")
     weights = frf_weights(frf) if weighting == "coherence" and frf.n_averages > 1 else None
+
     def refit(start_poles):
         return fit_modal_model(frf.H, frf.freq_hz, start_poles, band_hz=band, frf_form=frf_form,
                                leakage=leak, estimator=frf.estimator, refine=refine,
@@ -308,7 +309,10 @@ def identify(
         meta["chosen"] = chosen
         kwargs["metadata"] = meta
     kwargs.setdefault("duration_s", n / sample_rate_hz)
-    result = identify_frf(frf, band_hz=band_hz, **kwargs)
+    with warnings.catch_warnings(record=True) as first_warnings:
+        warnings.simplefilter("always")
+        result = identify_frf(frf, band_hz=band_hz, **kwargs)
+    refined = False
     if "resolution_hz" in chosen and len(result.model):
         # the survey may see a close pair as one peak: when the modes found at the chosen
         # resolution ask for a finer one the record supports, estimate and identify again
@@ -323,6 +327,10 @@ def identify(
                                outputs=tuple(outputs), inputs=tuple(inputs))
             kwargs["metadata"]["chosen"] = chosen
             result = identify_frf(frf, band_hz=band_hz, **kwargs)
+            refined = True
+    if not refined:  # the first pass's warnings stand (a refined pass issued its own)
+        for w in first_warnings:
+            warnings.warn_explicit(w.message, w.category, w.filename, w.lineno)
     msg = None if mimo else collinear_references_warning(reference, sample_rate_hz, frf, result.band_hz,
                                                          names=tuple(inputs))
     if msg:
@@ -335,9 +343,9 @@ def excited_band(reference, sample_rate_hz: float, resolution_hz: float) -> tupl
     """Return the band the first reference excites, in Hz.
 
     The band runs from the first to the last line of the reference's auto spectrum (Welch,
-    ``resolution_hz``) that lies within 20 dB of the plateau (the median of the lines within 10 dB of the
-    maximum): a random or
-    swept drive has a flat plateau, a measurement's noise floor lies far below it.
+    ``resolution_hz``) that lies within 20 dB of the plateau (the median of the lines within
+    10 dB of the maximum): a random or swept drive has a flat plateau, a measurement's noise
+    floor lies far below it.
 
     Parameters
     ----------
