@@ -32,7 +32,8 @@ Run:  nice -n 5 python benchmarks/bench_identify_defaults.py
       nice -n 5 python benchmarks/bench_identify_defaults.py --speed --seeds 0 0
       (``--no-sdypy``, ``--no-results``)
 
-Figures go to ``benchmarks/results/bench_identify_defaults.json``.
+Figures go to ``benchmarks/results/bench_identify_defaults.json`` (a run without development
+seeds to ``bench_identify_defaults--held-out.json``, ``--speed.json``).
 """
 
 from __future__ import annotations
@@ -261,7 +262,8 @@ def main() -> None:
     if args.held_out:
         figures["held_out"] = run_range(range(*args.held_out), not args.no_sdypy, "held-out")
     if not args.no_results:
-        case = "speed" if args.speed and "development" not in figures else None
+        parts = [k for k in ("development", "held_out", "speed") if k in figures]
+        case = None if "development" in parts else "-".join(parts).replace("_", "-")
         path = write_results("bench_identify_defaults", figures, args=args, case=case, start=run)
         print(f"key figures {path}")
 
