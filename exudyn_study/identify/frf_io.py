@@ -84,8 +84,8 @@ def is_frf_file(path: str | os.PathLike) -> bool:
         try:
             uff = pyuff.UFF(str(p))
             types = [int(t) for t in uff.get_set_types()]
-            return any(t == 58 and int(uff.read_sets(i).get("func_type", 0)) in FRF_FUNCTION_TYPES
-                       for i, t in enumerate(types))
+            return any(t == 58 and int(uff.read_sets(i, header_only=True).get("func_type", 0))
+                       in FRF_FUNCTION_TYPES for i, t in enumerate(types))
         except Exception:  # pyuff raises plain Exception on malformed files; the reader reports it
             return False
     return False
