@@ -15,7 +15,8 @@ Typical use::
 Modules: :mod:`.frf` (H1/H2/Hv, coherence), :mod:`.polymax` (stabilisation),
 :mod:`.selection` (automatic pole clustering), :mod:`.lsfd` (residues, shapes,
 synthesis, pole refinement, leakage model), :mod:`.mac` (MAC, MPC),
-:mod:`.resolution` (lines per half-power bandwidth), :mod:`.model` (ModalModel and
+:mod:`.resolution` (lines per half-power bandwidth, the automatic resolution),
+:mod:`.frf_io` (measured FRFs: UFF58 function type 4, HDF5), :mod:`.model` (ModalModel and
 its JSON), :mod:`.pipeline` (end to end), :mod:`.plots`, :mod:`.synthetic`.
 
 ``lsfd``, ``polymax`` and ``mac`` are at once modules and their main functions:
@@ -27,6 +28,7 @@ name (``identify.mac(phi_a, phi_b)``), while ``identify.lsfd.Leakage`` and
 # modules that are also their main function (callable): lsfd(...), polymax(...), mac(...)
 from exudyn_study.identify import lsfd, mac, polymax
 from exudyn_study.identify.frf import FRF, estimate_frf, frf_weights
+from exudyn_study.identify.frf_io import is_frf_file, read_frf_file, write_frf_hdf5, write_frf_uff
 from exudyn_study.identify.lsfd import Leakage, LSFDResult, fit_modal_model, refine_poles, synthesise
 from exudyn_study.identify.mac import automac, mcf, mpc
 from exudyn_study.identify.model import ModalModel, Mode, read_modes_json, write_modes_json
@@ -39,6 +41,10 @@ __all__ = [
     "FRF",
     "estimate_frf",
     "frf_weights",
+    "is_frf_file",
+    "read_frf_file",
+    "write_frf_hdf5",
+    "write_frf_uff",
     "Poles",
     "polymax",
     "pole_to_modal",

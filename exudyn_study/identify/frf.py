@@ -247,10 +247,12 @@ def estimate_frf(
     chunk = max(1, int(2e7 // (16 * nf * (n_in + n_out))))  # bound memory to ~20 MB
     for c0 in range(0, navg, chunk):
         idx = starts[c0:c0 + chunk, None] + np.arange(nseg)[None, :]
-        fs_ = np.fft.rfft(scipy.signal.detrend(f[:, idx], axis=-1, type="constant") * win,
-                          axis=-1)[..., :nf]  # [n_in, seg, nf]
-        xs_ = np.fft.rfft(scipy.signal.detrend(x[:, idx], axis=-1, type="constant") * win,
-                          axis=-1)[..., :nf]
+        seg_f = f[:, idx]
+        seg_x = x[:, idx]
+        seg_f -= seg_f.mean(axis=-1, keepdims=True)  # constant detrend of every segment
+        seg_x -= seg_x.mean(axis=-1, keepdims=True)
+        fs_ = np.fft.rfft(seg_f * win, axis=-1)[..., :nf]  # [n_in, seg, nf]
+        xs_ = np.fft.rfft(seg_x * win, axis=-1)[..., :nf]
         gff += np.einsum("isk,jsk->ijk", fs_, np.conj(fs_))
         gxf += np.einsum("osk,isk->oik", xs_, np.conj(fs_))
         gxx += np.sum(np.abs(xs_) ** 2, axis=1)

@@ -152,6 +152,23 @@ class Leakage:
         """Normalised window autocorrelation rho[m], m = 0..n_segment-1."""
         return _lag_window(self.window, int(self.n_segment))
 
+    def pole_term(self, poles, freq_hz) -> np.ndarray:
+        r"""Return the expected Welch H1 estimate of the unit pole terms :math:`1/(j\omega-\lambda)`.
+
+        Parameters
+        ----------
+        poles : array_like of complex, shape (n_poles,)
+            Poles in rad/s.
+        freq_hz : array_like, shape (n_freq,)
+            Frequency lines in Hz (multiples of ``sample_rate_hz / n_segment``).
+
+        Returns
+        -------
+        ndarray of complex, shape (n_freq, n_poles)
+        """
+        return _pole_basis(np.atleast_1d(np.asarray(poles, complex)),
+                           np.asarray(freq_hz, float), self)
+
     def kernel(self, oversample: int = 16, half_width: int = 8) -> tuple[np.ndarray, np.ndarray]:
         """Spectral window ``|W|^2`` (unit sum) at offsets in lines, for smoothing.
 
@@ -163,14 +180,21 @@ class Leakage:
         weights : ndarray
             Kernel weights summing to 1.
         """
-        import scipy.signal
+        return _kernel(self.window, int(self.n_segment), int(oversample), int(half_width))
 
-        n = int(self.n_segment)
-        w = scipy.signal.get_window(self.window, n)
-        off = np.arange(-half_width * oversample, half_width * oversample + 1) / oversample
-        spec = np.exp(-2j * np.pi * np.outer(off, np.arange(n)) / n) @ w
-        k = np.abs(spec) ** 2
-        return off, k / k.sum()
+
+@functools.lru_cache(maxsize=16)
+def _kernel(window: str, n: int, oversample: int, half_width: int) -> tuple[np.ndarray, np.ndarray]:
+    import scipy.signal
+
+    w = scipy.signal.get_window(window, n)
+    off = np.arange(-half_width * oversample, half_width * oversample + 1) / oversample
+    spec = np.exp(-2j * np.pi * np.outer(off, np.arange(n)) / n) @ w
+    k = np.abs(spec) ** 2
+    k = k / k.sum()
+    off.setflags(write=False)
+    k.setflags(write=False)
+    return off, k
 
 
 @functools.lru_cache(maxsize=8)
@@ -184,17 +208,71 @@ def _lag_window(window: str, n: int) -> np.ndarray:
     return a
 
 
+@functools.lru_cache(maxsize=8)
+def _lag_expansion(window: str, n: int) -> np.ndarray | None:
+    r"""Coefficients ``c[p, k]`` with :math:`\rho[m] = \sum c_{pk} (m/n)^p e^{j 2\pi k m / n}`, or None.
+
+    The lag window of a cosine-sum window (Hann, Hamming, Blackman, rectangular) is exactly
+    such a sum with p in {0, 1} and |k| <= 2, which gives the leakage-aware pole basis in
+    closed form (:func:`_pole_basis`); None when the expansion is not exact to round-off.
+    """
+    rho = _lag_window(window, n)
+    m = np.arange(n)
+    ks = np.arange(-2, 3)
+    a = np.concatenate([(m / n)[:, None] ** p * np.exp(2j * np.pi * np.outer(m, ks) / n)
+                        for p in (0, 1)], axis=1)
+    c = np.linalg.lstsq(a, rho.astype(complex), rcond=None)[0]
+    if np.max(np.abs(a @ c - rho)) > 1e-11:
+        return None
+    c = c.reshape(2, ks.size)
+    c.setflags(write=False)
+    return c
+
+
 def _pole_basis(poles: np.ndarray, freq_hz: np.ndarray, leakage: Leakage | None):
-    """Basis functions of the pole terms, ``[n_freq, n_poles]``."""
+    r"""Basis functions of the pole terms, ``[n_freq, n_poles]``.
+
+    With ``leakage`` the term of pole :math:`\lambda` at line :math:`l` is
+    :math:`\Delta t \sum_{m<N} \rho[m] e^{\lambda m \Delta t} e^{-j2\pi lm/N}`; for a
+    cosine-sum window (:func:`_lag_expansion`) it is summed in closed form, geometric sums
+    :math:`\sum r^m` and :math:`\sum (m/N) r^m` with :math:`r^N = e^{\lambda N \Delta t}`
+    (O(n_freq n_poles) instead of one length-N FFT per pole); otherwise by FFT.
+    """
     if leakage is None:
         jw = 2j * np.pi * freq_hz
         return 1.0 / (jw[:, None] - poles[None, :])
     dt = 1.0 / leakage.sample_rate_hz
-    n = leakage.n_segment
+    n = int(leakage.n_segment)
     lines = np.rint(freq_hz * n * dt).astype(int)
-    m = np.arange(n)
-    g = dt * np.exp(poles[:, None] * (m[None, :] * dt)) * leakage.lag_window()[None, :]
-    return np.fft.fft(g, axis=1)[:, lines].T
+    coef = _lag_expansion(leakage.window, n)
+    if coef is None:
+        m = np.arange(n)
+        g = dt * np.exp(poles[:, None] * (m[None, :] * dt)) * leakage.lag_window()[None, :]
+        return np.fft.fft(g, axis=1)[:, lines].T
+    theta = 2 * np.pi / n
+    rn = np.exp(poles * (n * dt))[None, None, :]  # r^N, the same for every line and k
+    ks = np.arange(-2, 3)
+    r = np.exp(poles[None, :] * dt - 1j * theta * lines[:, None])[None] \
+        * np.exp(1j * theta * ks)[:, None, None]
+    q = 1 - r  # |1 - r| >= zeta omega dt: round-off eps / (zeta omega dt) < 1e-11 here
+    s0 = (1 - rn) / q
+    s1 = r / q * (s0 - n * rn / r) / n
+    out = np.tensordot(coef[0], s0, axes=(0, 0)) + np.tensordot(coef[1], s1, axes=(0, 0))
+    return dt * out
+
+
+def _pole_basis_derivative(poles: np.ndarray, freq_hz: np.ndarray, leakage: Leakage | None):
+    """Return the derivative of :func:`_pole_basis` with respect to each pole, ``[n_freq, n_poles]``.
+
+    Exact for plain pole terms; a central difference in the (analytic) pole otherwise,
+    with a step of 1e-6 |pole|, far below any pole's distance to the real axis scale.
+    """
+    if leakage is None:
+        jw = 2j * np.pi * freq_hz
+        return 1.0 / (jw[:, None] - poles[None, :]) ** 2
+    h = 1e-6 * np.abs(poles)
+    return (_pole_basis(poles + h, freq_hz, leakage)
+            - _pole_basis(poles - h, freq_hz, leakage)) / (2 * h)[None, :]
 
 
 def _basis(poles: np.ndarray, freq_hz: np.ndarray, powers, leakage=None) -> np.ndarray:
@@ -465,25 +543,78 @@ def refine_poles(
     z0 = np.clip(z0, 1e-5, 0.5)
 
     z_max = 0.9  # the optimiser may try any step: keep trial poles underdamped and finite
+    n = poles.size
+    # real stacked data and line weights of every right-hand side (output x reference)
+    hr = np.vstack([hw.real, hw.imag]).T  # [n_rhs, 2 nf]
+    wr = np.ones_like(hr) if w_line is None else np.vstack([w_line, w_line]).T
+    whr = wr * hr
 
     def unpack(x):
-        n = poles.size
         fn = fn0 * (1 + np.clip(x[:n], -0.5, 0.5))
-        return modal_to_pole(fn, np.minimum(z0 * np.exp(np.minimum(x[n:], 50.0)), z_max))
+        zeta = np.minimum(z0 * np.exp(np.minimum(x[n:], 50.0)), z_max)
+        return fn, zeta
+
+    cache = {}
+
+    def evaluate(x):
+        """Variable projection at x: residual, projector pieces and the pole derivatives."""
+        key = x.tobytes()
+        if key in cache:
+            return cache[key]
+        fn, zeta = unpack(x)
+        lam = modal_to_pole(fn, zeta)
+        a = _basis(lam, f, powers, leakage)
+        ar = np.vstack([a.real, a.imag])  # [2 nf, n_col]
+        aw = wr[:, :, None] * ar[None, :, :]  # [n_rhs, 2 nf, n_col]
+        norm = np.linalg.norm(aw, axis=1)
+        norm[norm == 0] = 1.0
+        aw /= norm[:, None, :]
+        g = np.matmul(aw.transpose(0, 2, 1), aw)
+        rhs = np.matmul(aw.transpose(0, 2, 1), whr[:, :, None])
+        try:
+            cn = np.linalg.solve(g, rhs)[..., 0]
+        except np.linalg.LinAlgError:
+            cn = np.stack([np.linalg.lstsq(g[r], rhs[r, :, 0], rcond=None)[0]
+                           for r in range(g.shape[0])])
+        r_vec = whr - np.matmul(aw, cn[:, :, None])[..., 0]  # [n_rhs, 2 nf]
+        cache.clear()
+        cache[key] = (r_vec, lam, fn, zeta, aw, g, cn / norm)
+        return cache[key]
 
     def resid(x):
-        a = _basis(unpack(x), f, powers, leakage)
-        _, syn = _solve(a, hw, w_line)
-        d = hw - syn if w_line is None else (hw - syn) * w_line
-        return np.concatenate([d.real.ravel(), d.imag.ravel()])
+        return evaluate(x)[0].ravel()
 
-    x0 = np.zeros(2 * poles.size)
+    def jac(x):
+        # Kaufman's variable-projection Jacobian: dr/dtheta = -(I - P) W (dA/dtheta) c
+        _, lam, fn, zeta, aw, g, c = evaluate(x)
+        w = 2 * np.pi * fn
+        root = np.sqrt(1 - zeta**2)
+        dlam_dw = -zeta + 1j * root
+        dlam_dz = -w - 1j * w * zeta / root
+        dlam = np.concatenate([
+            dlam_dw * 2 * np.pi * fn0 * (np.abs(x[:n]) < 0.5),
+            dlam_dz * zeta * (zeta < z_max),
+        ])  # [2 n]: d lambda_k / d x_j, pole k = j mod n
+        db1 = _pole_basis_derivative(lam, f, leakage)  # [nf, n]
+        db2 = _pole_basis_derivative(np.conj(lam), f, leakage)
+        k = np.tile(np.arange(n), 2)
+        d1 = db1[:, k] * dlam[None, :]  # d b1_k / d x_j
+        d2 = db2[:, k] * np.conj(dlam)[None, :]
+        col_re, col_im = d1 + d2, 1j * (d1 - d2)  # derivatives of the two columns of pole k
+        dar_re = np.vstack([col_re.real, col_re.imag])  # [2 nf, 2 n]
+        dar_im = np.vstack([col_im.real, col_im.imag])
+        v = dar_re[None, :, :] * c[:, k][:, None, :] + dar_im[None, :, :] * c[:, n + k][:, None, :]
+        wv = wr[:, :, None] * v  # [n_rhs, 2 nf, 2 n]
+        proj = np.matmul(aw, np.linalg.solve(g, np.matmul(aw.transpose(0, 2, 1), wv)))
+        return -(wv - proj).reshape(-1, 2 * n)
+
+    x0 = np.zeros(2 * n)
     sol = scipy.optimize.least_squares(
-        resid, x0, method="lm", x_scale=np.concatenate([np.full(poles.size, 1e-3),
-                                                         np.full(poles.size, 0.1)]),
-        max_nfev=max_nfev * (2 * poles.size + 1),
+        resid, x0, jac=jac, method="lm", x_scale=np.concatenate([np.full(n, 1e-3),
+                                                                   np.full(n, 0.1)]),
+        max_nfev=max_nfev * (2 * n + 1),
     )
-    new = unpack(sol.x)
+    new = modal_to_pole(*unpack(sol.x))
     fn_new = pole_to_modal(new)[0]
     order = np.argsort(fn0)
     gaps = np.diff(fn0[order])
@@ -527,14 +658,24 @@ def welch_expectation(
     ndarray of complex, shape (n_out, n_in, n_freq)
     """
     f = np.asarray(freq_hz, dtype=float)
-    off, k = leakage.kernel()
     df = leakage.sample_rate_hz / leakage.n_segment
-    grid = f[:, None] + off[None, :] * df  # [nf, n_off]
-    h = synthesise(result, grid.ravel()).reshape(*result.residues.shape[:2], *grid.shape)
-    e_h = h @ k
+    # the kernel is sampled at a quarter of a line, finer where a half-power bandwidth
+    # (2 |Re lambda| / 2 pi) spans less than a line: at least four samples per bandwidth
+    lines_bw = float(np.min(np.abs(result.poles.real))) / (np.pi * df) if result.poles.size else 1.0
+    oversample = int(np.clip(np.ceil(4.0 / max(min(lines_bw, 1.0), 1e-3)), 4, 16))
+    off, k = leakage.kernel(oversample=oversample, half_width=4)
+    # the model on one fine grid (step df / oversample) covering every line's kernel; line l
+    # uses the samples l * oversample + j, j = 0 .. n_off - 1
+    half = (off.size - 1) // 2
+    lines = np.rint((f - f[0]) / df).astype(int) if f.size else np.zeros(0, int)
+    fine = f[0] + (np.arange(lines[-1] * oversample + off.size) - half) * (df / oversample) \
+        if f.size else np.zeros(0)
+    h_fine = synthesise(result, fine)
+    idx = lines[:, None] * oversample + np.arange(off.size)[None, :]  # [nf, n_off]
+    e_h = h_fine[:, :, idx] @ k
     if estimator == "H1":
         return e_h
-    e_hh = (np.abs(h) ** 2) @ k
+    e_hh = (np.abs(h_fine) ** 2)[:, :, idx] @ k
     if estimator == "Hv":
         return e_h / np.maximum(np.abs(e_h), np.finfo(float).tiny) * np.sqrt(e_hh)
     if estimator == "H2":
@@ -561,8 +702,9 @@ def fit_modal_model(
     With ``leakage`` the pole terms are leakage-aware (see :class:`Leakage`); for
     H2 and Hv, whose expectation is not linear in the FRF, the data are first
     mapped to their H1 equivalent with the current model,
-    ``H_meas * E[H1] / E[H_est]`` (:func:`welch_expectation`), and the fit is
-    repeated ``iterations`` times (a fixed-point iteration on the bias).
+    ``H_meas * E[H1] / E[H_est]`` (:func:`welch_expectation`), and the residues are
+    refitted ``iterations`` times (a fixed-point iteration on the bias), the poles
+    refined again on the last of them.
 
     Parameters
     ----------
@@ -602,7 +744,8 @@ def fit_modal_model(
     res = lsfd(frf, freq_hz, p, weights=weights, **kw)
     if leakage is not None and estimator in ("H2", "Hv"):
         sel = band_mask(freq_hz, band_hz)
-        for _ in range(max(0, int(iterations))):
+        n_it = max(0, int(iterations))
+        for it in range(n_it):
             e1 = welch_expectation(res, freq_hz[sel], leakage, "H1")
             ee = welch_expectation(res, freq_hz[sel], leakage, estimator)
             with np.errstate(invalid="ignore", divide="ignore"):
@@ -617,7 +760,9 @@ def fit_modal_model(
                     w_eq[:, :, sel] = np.nan_to_num(w_eq[:, :, sel] / np.abs(corr))
             elif weights is not None:
                 w_eq = weights
-            p = refine_poles(h_eq, freq_hz, p, weights=w_eq, **kw) if refine else p
+            # the map converges with the residues; the poles are refined on the last pass
+            if refine and it == n_it - 1:
+                p = refine_poles(h_eq, freq_hz, p, weights=w_eq, **kw)
             res = lsfd(h_eq, freq_hz, p, weights=w_eq, **kw)
         # report the fit against the data as measured
         syn = welch_expectation(res, freq_hz[sel], leakage, estimator)

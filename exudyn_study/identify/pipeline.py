@@ -21,11 +21,17 @@ from exudyn_study.identify.lsfd import Leakage, LSFDResult, fit_modal_model
 from exudyn_study.identify.mac import mpc
 from exudyn_study.identify.model import ModalModel, Mode
 from exudyn_study.identify.polymax import Poles, polymax
-from exudyn_study.identify.resolution import resolution_warnings
+from exudyn_study.identify.resolution import (
+    choose_resolution,
+    first_pass_resolution,
+    resolution_warnings,
+)
 from exudyn_study.identify.selection import Selection, select_modes
+from exudyn_study.identify.selfcheck import self_check
+from exudyn_study.infra.blas import one_blas_thread
 
 __all__ = ["IdentificationResult", "identify_frf", "identify", "identify_recording",
-           "DEFAULT_ORDERS"]
+           "DEFAULT_ORDERS", "excited_band"]
 
 logger = logging.getLogger(__name__)
 
@@ -77,6 +83,7 @@ def _default_band(frf: FRF) -> tuple[float, float]:
     return float(frf.freq_hz[good[0]]), float(frf.freq_hz[good[-1]])
 
 
+@one_blas_thread
 def identify_frf(
     frf: FRF,
     *,
@@ -92,8 +99,9 @@ def identify_frf(
     selection: dict | None = None,
     duration_s: float | None = None,
     metadata: dict | None = None,
+    check: bool = True,
 ) -> IdentificationResult:
-    """Identify modes from FRFs: PolyMAX, automatic selection, LSFD.
+    """Identify modes from FRFs: PolyMAX, automatic selection, LSFD, self-check.
 
     Parameters
     ----------
@@ -126,6 +134,11 @@ def identify_frf(
         Record length in s, for the resolution suggestion.
     metadata : dict, optional
         Extra metadata for the model.
+    check : bool, optional
+        Run the self-check after LSFD (default True): where the synthesised FRFs misfit the
+        data beyond their noise, look for the missing pole and add it
+        (:func:`~exudyn_study.identify.selfcheck.self_check`); what was added and where the
+        fit stays poor goes to the metadata under ``'self_check'``.
 
     Returns
     -------
@@ -157,13 +170,29 @@ def identify_frf(
     if weighting not in ("coherence", "none"):
         raise InputError(f"weighting {weighting!r}: expected 'coherence' or 'none'")
     weights = frf_weights(frf) if weighting == "coherence" and frf.n_averages > 1 else None
-    fit = fit_modal_model(frf.H, frf.freq_hz, sel.poles, band_hz=band, frf_form=frf_form,
-                          leakage=leak, estimator=frf.estimator, refine=refine,
-                          weights=weights)
+
+    def refit(start_poles):
+        return fit_modal_model(frf.H, frf.freq_hz, start_poles, band_hz=band, frf_form=frf_form,
+                               leakage=leak, estimator=frf.estimator, refine=refine,
+                               weights=weights)
+
+    fit = refit(sel.poles)
+    clusters = list(sel.modes)
+    if check:
+        report, fit, extra = self_check(frf, fit, poles, sel, band, refit,
+                                        exclude_hz=[float(x) for x in drop_hz])
+        clusters += extra
+        meta["self_check"] = report.as_dict()
+        for a in report.added:
+            logger.info("self-check added %.3f Hz / %.2f %% (%s): misfit in %.2f-%.2f Hz %.1f -> %.1f",
+                        a["frequency_hz"], 100 * a["damping_ratio"], a["source"], *a["band_hz"],
+                        a["misfit_before"], a["misfit_after"])
+        if report.poor_fit_bands_hz:
+            logger.info("self-check: poor fit in %s Hz", report.poor_fit_bands_hz)
     names = frf.outputs or tuple(f"ch{i}" for i in range(frf.H.shape[0]))
     phase_coll = mpc(fit.shapes)
     modes = []
-    for k, c in enumerate(sel.modes):
+    for k, c in enumerate(clusters):
         shape = {n: complex(v) for n, v in zip(names, fit.shapes[:, k], strict=True)}
         modes.append(Mode(
             frequency_hz=float(fit.frequency_hz[k]),
@@ -173,6 +202,9 @@ def identify_frf(
             mpc=float(phase_coll[k]),
             shape=shape,
         ))
+    order = np.argsort([m.frequency_hz for m in modes])
+    modes = [modes[i] for i in order]
+    fit = _sorted_fit(fit, order)
     model = ModalModel(tuple(modes), meta)
     msgs = tuple(resolution_warnings(model.frequency_hz, model.damping_ratio,
                                      frf.resolution_hz, duration_s=duration_s))
@@ -180,8 +212,14 @@ def identify_frf(
         msgs = msgs + ("leakage correction is on: the damping values above are corrected for "
                        "the spectral window; a finer resolution still reduces their variance",)
     for m in msgs:
-        warnings.warn(m, stacklevel=2)
+        warnings.warn(m, stacklevel=3)  # past the one_blas_thread wrapper
     return IdentificationResult(model, frf, poles, sel, fit, band, msgs)
+
+
+def _sorted_fit(fit: LSFDResult, order: np.ndarray) -> LSFDResult:
+    """Return the fit with its modes in the order ``order`` (poles, residues, shapes, ...)."""
+    return replace(fit, poles=fit.poles[order], residues=fit.residues[:, :, order],
+                   shapes=fit.shapes[:, order], participation=fit.participation[:, order])
 
 
 def identify(
@@ -191,7 +229,7 @@ def identify(
     *,
     outputs: Sequence[str] = (),
     inputs: Sequence[str] = (),
-    resolution_hz: float = 0.2,
+    resolution_hz: float | None = None,
     estimator: str = "Hv",
     band_hz: tuple[float, float] | None = None,
     overlap: float = 0.5,
@@ -212,11 +250,17 @@ def identify(
     outputs, inputs : sequence of str, optional
         Channel names of responses and references.
     resolution_hz : float, optional
-        FRF resolution in Hz (default 0.2).
+        FRF resolution in Hz. Default: chosen from the data, a survey pass at the finest
+        resolution that keeps 30 averages finds the modes, then
+        :func:`~exudyn_study.identify.resolution.choose_resolution` sets the resolution
+        from their narrowest bandwidth, their closest spacing and the record length; when
+        the modes identified at that resolution ask for a finer one (a close pair the
+        survey saw as one peak), the identification is repeated once at it.
     estimator : {'H1', 'H2', 'Hv'}, optional
         FRF estimator (default 'Hv').
     band_hz : (float, float), optional
-        Band in Hz; must lie below the Nyquist frequency.
+        Band in Hz; must lie below the Nyquist frequency. Default: the band the first
+        reference excites (:func:`excited_band`).
     overlap, window, mimo
         Welch settings, see :func:`estimate_frf`.
     **kwargs
@@ -245,18 +289,116 @@ def identify(
                 f"at {sample_rate_hz:g} Hz sampling)"
             )
     n = np.shape(response)[-1]
+    duration = n / sample_rate_hz
+    chosen = {}
+    if band_hz is None:
+        band_hz = excited_band(reference, sample_rate_hz, first_pass_resolution(duration))
+        chosen["band_hz"] = f"{band_hz[0]:.3g}-{band_hz[1]:.3g} Hz, where the reference is excited"
+    if resolution_hz is None:
+        resolution_hz, chosen["resolution_hz"] = _choose_resolution(
+            reference, response, sample_rate_hz, band_hz, estimator=estimator, overlap=overlap,
+            window=window, mimo=mimo, orders=kwargs.get("orders", DEFAULT_ORDERS))
+    for what, why in chosen.items():
+        logger.info("%s chosen: %s", what, why)
     frf = estimate_frf(reference, response, sample_rate_hz, resolution_hz=resolution_hz,
                        estimator=estimator, overlap=overlap, window=window, mimo=mimo,
-                       fmax_hz=None if band_hz is None else min(nyq, band_hz[1] * 1.2),
+                       fmax_hz=min(nyq, band_hz[1] * 1.2),
                        outputs=tuple(outputs), inputs=tuple(inputs))
+    if chosen:
+        meta = dict(kwargs.pop("metadata", None) or {})
+        meta["chosen"] = chosen
+        kwargs["metadata"] = meta
     kwargs.setdefault("duration_s", n / sample_rate_hz)
-    result = identify_frf(frf, band_hz=band_hz, **kwargs)
+    with warnings.catch_warnings(record=True) as first_warnings:
+        warnings.simplefilter("always")
+        result = identify_frf(frf, band_hz=band_hz, **kwargs)
+    refined = False
+    if "resolution_hz" in chosen and len(result.model):
+        # the survey may see a close pair as one peak: when the modes found at the chosen
+        # resolution ask for a finer one the record supports, estimate and identify again
+        adv = choose_resolution(result.model.frequency_hz, result.model.damping_ratio, duration,
+                                overlap=overlap)
+        if adv.resolution_hz < 0.99 * frf.resolution_hz:
+            chosen["resolution_hz"] = adv.message + " (refined after the first identification)"
+            logger.info("resolution_hz refined: %s", adv.message)
+            frf = estimate_frf(reference, response, sample_rate_hz, resolution_hz=adv.resolution_hz,
+                               estimator=estimator, overlap=overlap, window=window, mimo=mimo,
+                               fmax_hz=min(nyq, band_hz[1] * 1.2),
+                               outputs=tuple(outputs), inputs=tuple(inputs))
+            kwargs["metadata"]["chosen"] = chosen
+            result = identify_frf(frf, band_hz=band_hz, **kwargs)
+            refined = True
+    if not refined:  # the first pass's warnings stand (a refined pass issued its own)
+        for w in first_warnings:
+            warnings.warn_explicit(w.message, w.category, w.filename, w.lineno)
     msg = None if mimo else collinear_references_warning(reference, sample_rate_hz, frf, result.band_hz,
                                                          names=tuple(inputs))
     if msg:
-        warnings.warn(msg, stacklevel=2)
+        warnings.warn(msg, stacklevel=3)  # past the one_blas_thread wrapper
         result = replace(result, warnings=result.warnings + (msg,))
     return result
+
+
+def excited_band(reference, sample_rate_hz: float, resolution_hz: float) -> tuple[float, float]:
+    """Return the band the first reference excites, in Hz.
+
+    The band runs from the first to the last line of the reference's auto spectrum (Welch,
+    ``resolution_hz``) that lies within 20 dB of the plateau (the median of the lines within
+    10 dB of the maximum): a random or swept drive has a flat plateau, a measurement's noise
+    floor lies far below it.
+
+    Parameters
+    ----------
+    reference : ndarray, shape (n_in, n_samples) or (n_samples,)
+        Reference time data.
+    sample_rate_hz : float
+        Sampling rate in Hz.
+    resolution_hz : float
+        Resolution of the spectrum in Hz.
+
+    Returns
+    -------
+    (float, float)
+        Lower and upper edge in Hz.
+
+    Raises
+    ------
+    InputError
+        When the reference excites fewer than 8 lines.
+    """
+    import scipy.signal
+
+    ref = np.atleast_2d(np.asarray(reference, dtype=float))[0]
+    nseg = min(ref.size, max(8, int(round(sample_rate_hz / resolution_hz))))
+    f, g = scipy.signal.welch(ref, sample_rate_hz, nperseg=nseg)
+    peak = g[1:].max()
+    top = np.median(g[1:][g[1:] >= 0.1 * peak])  # the plateau's level
+    good = np.flatnonzero((g >= 0.01 * top) & (f > 0))
+    if good.size < 8:
+        raise InputError(
+            "band: the reference excites fewer than 8 spectral lines, so no band can be chosen "
+            "from it; give band_hz (fmin, fmax) (the CLI's --band)"
+        )
+    return float(f[good[0]]), float(f[good[-1]])
+
+
+def _choose_resolution(reference, response, fs, band_hz, *, estimator, overlap, window, mimo,
+                       orders) -> tuple[float, str]:
+    """Survey pass (resolution for 30 averages, PolyMAX, selection), then choose_resolution."""
+    duration = np.shape(response)[-1] / fs
+    survey = first_pass_resolution(duration, overlap=overlap)
+    frf = estimate_frf(reference, response, fs, resolution_hz=survey, estimator=estimator,
+                       overlap=overlap, window=window, mimo=mimo,
+                       fmax_hz=min(fs / 2, band_hz[1] * 1.2))
+    orders = sorted(int(o) for o in orders)
+    try:
+        poles = polymax(frf.H, frf.freq_hz, orders, band_hz=band_hz)
+        sel = select_modes(poles)
+    except InputError:
+        return survey, f"{survey:g} Hz: the survey pass found no modes"
+    adv = choose_resolution([c.frequency_hz for c in sel.modes],
+                            [c.damping_ratio for c in sel.modes], duration, overlap=overlap)
+    return adv.resolution_hz, adv.message
 
 
 #: median reference-to-reference coherence in the band above which the references count as collinear

@@ -23,10 +23,22 @@ import numpy as np
 from exudyn_study.errors import InputError
 
 __all__ = ["lines_in_half_power", "ResolutionAdvice", "suggest_resolution",
-           "resolution_warnings", "MIN_LINES"]
+           "resolution_warnings", "MIN_LINES", "first_pass_resolution", "choose_resolution",
+           "FIT_LINES", "PAIR_LINES", "MIN_AVERAGES"]
 
 #: spectral lines in the half-power bandwidth below which damping is flagged
 MIN_LINES = 5.0
+#: lines per half-power bandwidth the automatic choice aims at: the leakage-aware fit
+#: (:class:`~exudyn_study.identify.lsfd.Leakage`) removes the window bias, so fewer lines
+#: than :data:`MIN_LINES` suffice for the damping; below about two the peak's shape is lost
+FIT_LINES = 2.5
+#: lines between the two modes of the closest pair the automatic choice aims at
+PAIR_LINES = 3.0
+#: Welch averages the automatic choice keeps at least (the random error of an H estimate at
+#: coherence 0.9 is then below 10 %)
+MIN_AVERAGES = 12
+#: averages of the first (survey) pass
+SURVEY_AVERAGES = 30
 
 
 def lines_in_half_power(frequency_hz, damping_ratio, resolution_hz: float) -> np.ndarray:
@@ -183,3 +195,92 @@ def resolution_warnings(frequency_hz, damping_ratio, resolution_hz: float, *,
         f"bandwidth at {resolution_hz:g} Hz, so window leakage biases their damping: {listing}",
         f"suggested resolution: {adv.message}",
     ]
+
+
+def _nice_up(x: float) -> float:
+    """Smallest 1, 2 or 5 times a power of ten at or above ``x``."""
+    e = np.floor(np.log10(x))
+    return float(min(m * 10**k for k in (e, e + 1) for m in (1, 2, 5) if m * 10**k >= x * (1 - 1e-12)))
+
+
+def _nice_down(x: float) -> float:
+    """Largest 1, 2 or 5 times a power of ten at or below ``x``."""
+    e = np.floor(np.log10(x))
+    return float(max(m * 10**k for k in (e - 1, e) for m in (1, 2, 5) if m * 10**k <= x * (1 + 1e-12)))
+
+
+def _finest_for_averages(duration_s: float, n_avg: int, overlap: float) -> float:
+    return (1 + (n_avg - 1) * (1 - overlap)) / duration_s
+
+
+def first_pass_resolution(duration_s: float, *, overlap: float = 0.5) -> float:
+    """Return the resolution of the survey pass: the finest that keeps 30 averages.
+
+    Parameters
+    ----------
+    duration_s : float
+        Record length in s.
+    overlap : float, optional
+        Welch overlap (default 0.5).
+
+    Returns
+    -------
+    float
+        Resolution in Hz (1, 2 or 5 times a power of ten).
+    """
+    if not (np.isfinite(duration_s) and duration_s > 0):
+        raise InputError(f"duration_s={duration_s!r}: expected a positive record length in s")
+    return _nice_up(_finest_for_averages(duration_s, SURVEY_AVERAGES, overlap))
+
+
+def choose_resolution(frequency_hz, damping_ratio, duration_s: float, *,
+                      overlap: float = 0.5) -> ResolutionAdvice:
+    """Choose the FRF resolution from the modes of a survey pass and the record length.
+
+    The resolution aims at :data:`FIT_LINES` lines in the narrowest half-power bandwidth and
+    :data:`PAIR_LINES` lines between the two closest modes, but keeps at least
+    :data:`MIN_AVERAGES` Welch averages (the variance of the estimate); it is never coarser
+    than the survey resolution.
+
+    Parameters
+    ----------
+    frequency_hz, damping_ratio : array_like
+        Modes of the survey pass (Hz, -); may be empty.
+    duration_s : float
+        Record length in s.
+    overlap : float, optional
+        Welch overlap (default 0.5).
+
+    Returns
+    -------
+    ResolutionAdvice
+        ``feasible`` is False when the averages limit the resolution.
+    """
+    survey = first_pass_resolution(duration_s, overlap=overlap)
+    fr = np.asarray(frequency_hz, float)
+    ze = np.asarray(damping_ratio, float)
+    ok = np.isfinite(fr) & np.isfinite(ze) & (ze > 0) & (fr > 0)
+    fr, ze = fr[ok], ze[ok]
+    # the finest resolution that keeps MIN_AVERAGES, exact (not rounded to a 1-2-5 value, which
+    # would give away up to a factor 2.5 of resolution where the record is what limits it)
+    floor = _finest_for_averages(duration_s, MIN_AVERAGES, overlap)
+    if fr.size == 0:
+        return ResolutionAdvice(survey, np.nan, _averages(duration_s, survey, overlap), True,
+                                f"{survey:g} Hz ({SURVEY_AVERAGES} averages): no mode to resolve")
+    want = float(np.min(2 * ze * fr)) / FIT_LINES
+    why = f"{FIT_LINES:g} lines in the narrowest half-power bandwidth"
+    if fr.size > 1:
+        gaps = np.diff(np.sort(fr))
+        pair = float(gaps.min()) / PAIR_LINES
+        if pair < want:
+            want, why = pair, f"{PAIR_LINES:g} lines between the closest modes ({gaps.min():.3g} Hz apart)"
+    nice = min(_nice_down(want), survey)
+    feasible = nice >= floor
+    res = max(nice, floor)
+    n_avg = _averages(duration_s, res, overlap)
+    lines = float(np.min(2 * ze * fr)) / res
+    msg = (f"{res:.4g} Hz for {why}" if feasible else
+           f"{res:.4g} Hz, the finest that keeps {MIN_AVERAGES} averages ({nice:g} Hz would give {why})")
+    return ResolutionAdvice(res, lines, n_avg, feasible,
+                            f"{msg}: {lines:.1f} lines in the narrowest bandwidth, {n_avg} averages "
+                            f"over {duration_s:g} s")

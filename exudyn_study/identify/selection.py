@@ -12,11 +12,16 @@ therefore
    the same model order are kept apart (one pole per order and mode); the cut is
    at distance 1, so two modes a little more than ``tol_frequency`` apart are
    resolved (1 % by default: modes 2 % apart are two clusters);
-3. accepts the clusters that hold poles from at least ``min_coverage`` of the
-   upper half of the computed orders (a physical pole persists once the order
-   suffices; a pole that stands for two close modes at low order disappears when
-   the order is high enough to split it), and reports each with the median of
-   its members as estimate and their standard deviation as uncertainty;
+3. accepts the clusters that behave like a physical pole from the order where they
+   appear on, wherever that is (a 5 %-damped mode or one of a close pair may only
+   stabilise at high order): present at ``min_orders`` orders or more, at a share
+   ``min_persistence`` of the orders from their first one to the highest, and in the
+   top quarter of the orders (a pole that stands for two close modes at low order
+   disappears when the order is high enough to split it, and its two successors take
+   over); consistent in frequency and damping (their spread across orders, 1.4826 median
+   absolute deviations, below ``tol_frequency`` / 2 and ``max_damping_spread``). Each is
+   reported with the median of its members as estimate and their standard deviation as
+   uncertainty;
 4. rejects *satellites*: an accepted cluster closer than ``satellite_frequency``
    (relative) or than ``satellite_bandwidths`` half-power bandwidths (at most
    ``satellite_lines`` spectral lines) to an accepted cluster present at more orders, with the
@@ -78,8 +83,8 @@ class Cluster:
     accepted : bool
         Selected as a physical mode.
     reason : str
-        Why it was accepted or rejected ('automatic', 'pinned', 'coverage',
-        'satellite', 'edge', 'dropped').
+        Why it was accepted or rejected ('automatic', 'pinned', 'persistence',
+        'consistency', 'satellite', 'edge', 'dropped').
     """
 
     members: np.ndarray
@@ -147,7 +152,9 @@ def select_modes(
     *,
     tol_frequency: float = 0.01,
     tol_mac: float = 0.2,
-    min_coverage: float = 0.5,
+    min_orders: int = 5,
+    min_persistence: float = 0.6,
+    max_damping_spread: float = 0.25,
     max_damping: float = 0.2,
     satellite_frequency: float = 0.015,
     satellite_mac: float = 0.9,
@@ -167,9 +174,15 @@ def select_modes(
         Relative frequency distance that separates clusters (default 0.01).
     tol_mac : float, optional
         1 - MAC distance that separates clusters (default 0.2).
-    min_coverage : float, optional
-        Minimum fraction of the upper half of the computed orders a cluster must
-        span (default 0.5).
+    min_orders : int, optional
+        Orders a cluster must be present at (default 5).
+    min_persistence : float, optional
+        Share of the orders from a cluster's first order to the highest at which it must
+        be present (default 0.6); it must also be present at this share of the top
+        quarter of the orders.
+    max_damping_spread : float, optional
+        Largest relative standard deviation of the damping across the cluster's orders
+        (default 0.25).
     max_damping : float, optional
         Upper bound of plausible damping ratios (default 0.2).
     satellite_frequency, satellite_mac : float, optional
@@ -216,8 +229,10 @@ def select_modes(
                       ("max_damping", max_damping)):
         if not (np.isfinite(val) and val > 0):
             raise InputError(f"{name}={val!r}: expected a positive number")
-    if not 0 < min_coverage <= 1:
-        raise InputError(f"min_coverage={min_coverage!r}: expected a fraction in (0, 1]")
+    if not 0 < min_persistence <= 1:
+        raise InputError(f"min_persistence={min_persistence!r}: expected a fraction in (0, 1]")
+    if int(min_orders) < 1:
+        raise InputError(f"min_orders={min_orders!r}: expected at least 1")
     orders = np.asarray(poles.orders)
     upper = orders[orders >= np.median(orders)]
     cand = np.flatnonzero(
@@ -226,7 +241,7 @@ def select_modes(
     )
     clusters: list[Cluster] = []
     if cand.size == 1:
-        clusters.append(_make_cluster(poles, cand, upper, False, "coverage"))
+        clusters.append(_make_cluster(poles, cand, upper, False, "persistence"))
     elif cand.size > 1:
         fr = poles.frequency_hz[cand]
         rel = np.abs(fr[:, None] - fr[None, :]) / np.maximum(fr[:, None], fr[None, :])
@@ -249,8 +264,8 @@ def select_modes(
                 io = idx[poles.order[idx] == o]
                 keep.append(io[np.argmin(np.abs(poles.frequency_hz[io] - med))])
             idx = np.array(sorted(keep))
-            ok = _coverage(poles, idx, upper) >= min_coverage
-            reason = "automatic" if ok else "coverage"
+            ok, reason = _persistent(poles, idx, orders, min_orders, min_persistence,
+                                     tol_frequency, max_damping_spread)
             if ok and poles.resolution_hz:
                 f_med = float(np.median(poles.frequency_hz[idx]))
                 lo, hi = poles.band_hz
@@ -306,12 +321,38 @@ def select_modes(
             )
         clusters[i] = _replace(clusters[i], accepted=True, reason="pinned")
     settings = {"tol_frequency": tol_frequency, "tol_mac": tol_mac,
-                "min_coverage": min_coverage, "max_damping": max_damping,
+                "min_orders": int(min_orders), "min_persistence": min_persistence,
+                "max_damping_spread": max_damping_spread, "max_damping": max_damping,
                 "satellite_frequency": satellite_frequency, "satellite_mac": satellite_mac,
                 "satellite_bandwidths": satellite_bandwidths, "satellite_lines": satellite_lines,
                 "edge_lines": edge_lines,
                 "pin_hz": [float(x) for x in pin_hz], "drop_hz": [float(x) for x in drop_hz]}
     return Selection(clusters=tuple(clusters), settings=settings)
+
+
+def _persistent(poles: Poles, idx: np.ndarray, orders: np.ndarray, min_orders: int,
+                min_persistence: float, tol_frequency: float, max_damping_spread: float):
+    """Whether a cluster behaves like a physical pole from its first order on; and why not."""
+    present = np.unique(poles.order[idx])
+    if present.size < min_orders:
+        return False, "persistence"
+    from_first = orders[orders >= present[0]]
+    top = orders[orders >= np.quantile(orders, 0.75)]
+    if (np.isin(from_first, present).mean() < min_persistence
+            or np.isin(top, present).mean() < min_persistence):
+        return False, "persistence"
+    # robust spread (1.4826 MAD): the first orders of a cluster may still be converging
+    fr = poles.frequency_hz[idx]
+    ze = poles.damping_ratio[idx]
+    if _mad(fr) > 0.5 * tol_frequency * np.median(fr):
+        return False, "consistency"
+    if _mad(ze) > max_damping_spread * np.median(ze):
+        return False, "consistency"
+    return True, "automatic"
+
+
+def _mad(x: np.ndarray) -> float:
+    return float(1.4826 * np.median(np.abs(x - np.median(x))))
 
 
 def _cluster_mac(poles: Poles, a: Cluster, b: Cluster) -> float:

@@ -44,6 +44,8 @@ __all__ = [
     "simulate",
     "pole_residue_frf",
     "to_recording",
+    "RandomCase",
+    "random_case",
 ]
 
 #: thesis Table 1: undamped natural frequencies (Hz) identified from the white-noise test
@@ -125,7 +127,12 @@ class BaseExcitedSystem:
     positions_m : ndarray, shape (n_out, 3)
         Sensor positions in m.
     reference : str
-        Name of the reference (base acceleration) channel.
+        Name of the reference channel (the base acceleration, or the force).
+    excitation : {'base', 'force'}
+        'base': ``participation`` are base-excitation factors and ``rigid`` the rigid
+        transmissibility. 'force': a force at one point, ``participation`` is minus the
+        mass-normalised shape at the drive point and ``rigid`` is 0, so that
+        :meth:`transmissibility` is the accelerance in (m/s^2)/N.
     """
 
     frequency_hz: np.ndarray
@@ -137,6 +144,7 @@ class BaseExcitedSystem:
     directions: tuple[str, ...]
     positions_m: np.ndarray
     reference: str = "ARFVZ"
+    excitation: str = "base"
 
     def __post_init__(self) -> None:
         n_out, n_modes = np.shape(self.shapes)
@@ -150,6 +158,8 @@ class BaseExcitedSystem:
             np.asarray(self.damping_ratio) >= 1
         ):
             raise InputError("damping_ratio: expected values in (0, 1)")
+        if self.excitation not in ("base", "force"):
+            raise InputError(f"excitation {self.excitation!r}: expected 'base' or 'force'")
 
     @property
     def poles(self) -> np.ndarray:
@@ -338,3 +348,123 @@ def to_recording(system: BaseExcitedSystem, reference: np.ndarray, responses: np
         x, sample_rate_hz, names, directions=dirs, positions_m=pos,
         metadata=dict(metadata or {"source": "exudyn_study.identify.synthetic"}),
     )
+
+
+@dataclass(frozen=True, eq=False)
+class RandomCase:
+    """A randomly drawn test case: a structure and how it is measured.
+
+    Attributes
+    ----------
+    system : BaseExcitedSystem
+        The structure (base or force excitation).
+    duration_s : float
+        Record length in s.
+    noise : float
+        Measurement noise rms relative to each channel's rms (-).
+    excitation_band_hz : (float, float)
+        Band of the random excitation in Hz.
+    seed : int
+        Seed the case was drawn with (also used for its time data).
+    """
+
+    system: BaseExcitedSystem
+    duration_s: float
+    noise: float
+    excitation_band_hz: tuple[float, float]
+    seed: int
+
+    def simulate(self, sample_rate_hz: float = 1000.0) -> tuple[np.ndarray, np.ndarray]:
+        """Time data of the case, see :func:`simulate`."""
+        return simulate(self.system, self.duration_s, sample_rate_hz=sample_rate_hz,
+                        noise=self.noise, excitation_band_hz=self.excitation_band_hz,
+                        seed=self.seed + 1_000_003)
+
+
+def random_case(
+    seed: int,
+    *,
+    n_channels: int = 24,
+    n_modes: tuple[int, int] = (6, 12),
+    damping: tuple[float, float] = (0.003, 0.06),
+    close_spacing: tuple[float, float] = (0.005, 0.02),
+    duration_s: tuple[float, float] = (60.0, 300.0),
+    noise: tuple[float, float] = (0.01, 0.05),
+) -> RandomCase:
+    """Draw a random identification test case.
+
+    The excitation band starts at 2-5 Hz and ends at 50-100 Hz; the modes lie uniformly in
+    its inner part (above 1.5 times the lower edge, below 0.85 times the upper edge), at
+    least 5 % apart except one close pair (two with 9 or more modes) whose second mode lies
+    ``close_spacing`` (relative) above the first. Damping ratios are log-uniform in
+    ``damping``, with one isolated mode at least 5 % damped (a heavily damped mode) and the
+    close-pair modes at most 1.5 % damped. Shapes are independent Gaussian
+    vectors over the channels (a close pair has distinct shapes, which is what makes it
+    identifiable from one reference); modal participations are drawn with magnitude
+    0.5-1.5. Half the cases are base excited (reference: base acceleration, rigid
+    transmissibility 1 on a third of the channels), half force excited (reference: the
+    force; accelerances).
+
+    Parameters
+    ----------
+    seed : int
+        Seed of the draw.
+    n_channels : int, optional
+        Number of response channels (default 24: with the reference 25 channels).
+    n_modes : (int, int), optional
+        Inclusive range of the number of modes (default 6-12).
+    damping : (float, float), optional
+        Range of damping ratios (-), default 0.3-6 %.
+    close_spacing : (float, float), optional
+        Relative spacing of close pairs (default 0.5-2 %).
+    duration_s : (float, float), optional
+        Range of record lengths in s (default 60-300).
+    noise : (float, float), optional
+        Range of the relative noise (default 1-5 %).
+
+    Returns
+    -------
+    RandomCase
+    """
+    rng = np.random.default_rng(seed)
+    n = int(rng.integers(n_modes[0], n_modes[1] + 1))
+    lo = float(rng.uniform(2.0, 5.0))
+    hi = float(rng.uniform(50.0, 100.0))
+    f_lo, f_hi = 1.5 * lo, 0.85 * hi
+    n_pairs = 1 if n < 9 else 2
+    n_single = n - n_pairs
+    for _ in range(10000):
+        f = np.sort(rng.uniform(f_lo, f_hi / 1.02, n_single))
+        if np.all(np.diff(f) / f[1:] > 0.05):
+            break
+    pair_at = rng.choice(n_single, n_pairs, replace=False)
+    extra = f[pair_at] * (1 + rng.uniform(*close_spacing, n_pairs))
+    freq = np.concatenate([f, extra])
+    zeta = np.exp(rng.uniform(np.log(damping[0]), np.log(damping[1]), n))
+    single = np.setdiff1d(np.arange(n_single), pair_at)
+    zeta[rng.choice(single)] = rng.uniform(0.05, damping[1])
+    # close pairs are lightly damped (at most 1.5 %): two modes 0.5 % apart at 5 % damping
+    # are one peak that no single-reference test separates
+    pair = np.concatenate([pair_at, np.arange(n_single, n)])
+    zeta[pair] = np.exp(rng.uniform(np.log(damping[0]), np.log(min(damping[1], 0.015)), pair.size))
+    order = np.argsort(freq)
+    freq, zeta = freq[order], zeta[order]
+    phi = rng.standard_normal((n_channels, n))
+    phi /= np.max(np.abs(phi), axis=0, keepdims=True)
+    base = bool(seed % 2 == 0)
+    gamma = rng.uniform(0.5, 1.5, n) * rng.choice([-1.0, 1.0], n)
+    names = tuple(f"R{i + 1:02d}{'XYZ'[i % 3]}" for i in range(n_channels))
+    dirs = tuple("XYZ"[i % 3] for i in range(n_channels))
+    if base:
+        rigid = np.array([1.0 if d == "Z" else 0.0 for d in dirs])
+        system = BaseExcitedSystem(freq, zeta, phi, gamma, rigid, names, dirs,
+                                   rng.uniform(0, 2, (n_channels, 3)), reference="BASEZ",
+                                   excitation="base")
+    else:
+        # force at one point: accelerance sum_k phi_o phi_d (-w^2) / (wk^2 - w^2 + ...), modal
+        # masses 1 kg, so participation = -phi_d (scaled like gamma)
+        system = BaseExcitedSystem(freq, zeta, phi, -gamma, np.zeros(n_channels), names, dirs,
+                                   rng.uniform(0, 2, (n_channels, 3)), reference="FORCEZ",
+                                   excitation="force")
+    return RandomCase(system=system, duration_s=float(rng.uniform(*duration_s)),
+                      noise=float(rng.uniform(*noise)), excitation_band_hz=(lo, hi), seed=int(seed))

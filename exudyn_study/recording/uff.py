@@ -22,6 +22,7 @@ import numpy as np
 
 from exudyn_study.errors import InputError
 from exudyn_study.recording.types import QUANTITY_UNITS, Channel, Recording
+from exudyn_study.recording.uff_ascii import read_sets
 
 _UFF_SUFFIXES = (".uff", ".unv")
 
@@ -275,7 +276,7 @@ def _read_uff_sets(path: Path) -> Recording:
             "export the time data as UFF58 (function type 1, time response)"
         )
     try:
-        sets = [uff.read_sets(i) for i in range(len(set_types))]
+        sets = read_sets(uff, path, set_types)  # ASCII 58 ordinates parsed by NumPy
     except Exception as exc:  # pyuff raises plain Exception on malformed files
         raise InputError(f"{where}: a dataset could not be read by pyuff ({exc})") from exc
 

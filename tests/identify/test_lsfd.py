@@ -82,3 +82,16 @@ def test_mac_and_complexity():
         lsfd(np.ones((1, 1, 10)), np.arange(10.0), np.array([-1 - 1j]))
     with pytest.raises(InputError, match=r"frf_form 'velocity': expected one of"):
         lsfd(np.ones((1, 1, 10)), np.arange(10.0), np.array([-1 + 10j]), frf_form="velocity")
+
+
+@pytest.mark.parametrize("window", ["hann", "hamming", "blackman", "boxcar"])
+def test_leakage_basis_closed_form_equals_its_definition(window):
+    """The closed-form leakage-aware pole term equals the DFT sum that defines it (Leakage)."""
+    leak = Leakage(1000.0, 4000, window)
+    poles = modal_to_pole(np.array([3.0, 15.2, 47.1, 60.0]), np.array([0.003, 0.06, 0.004, 0.2]))
+    freq = np.arange(8, 300) * 0.25
+    m = np.arange(leak.n_segment)
+    g = 1e-3 * np.exp(poles[:, None] * (m[None, :] * 1e-3)) * leak.lag_window()[None, :]
+    direct = np.fft.fft(g, axis=1)[:, np.rint(freq * 4).astype(int)].T
+    closed = leak.pole_term(poles, freq)
+    assert np.max(np.abs(closed - direct) / np.abs(direct)) < 1e-9
