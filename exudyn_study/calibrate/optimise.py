@@ -147,6 +147,7 @@ def calibrate(
     max_pairings: int = 5,
     max_evaluations: int = 200,
     verify: bool = False,
+    hold: Sequence[str] = (),
 ) -> CalibrationResult:
     """Choose flexible-body modal damping so that the system modes have the target damping.
 
@@ -178,6 +179,10 @@ def calibrate(
     verify : bool
         Rebuild with the chosen damping (needs a builder) and compare the damped modes with
         Exudyn's ``ComputeODE2Eigenvalues``.
+    hold : sequence of str
+        Sensors whose measured displacement is held at zero in the model's modes
+        (:meth:`LinearisedSystem.held`): the EMA's reference, when the target was identified
+        from transmissibilities. Default none.
 
     Returns
     -------
@@ -214,12 +219,15 @@ def calibrate(
         if regularization < 0 or not math.isfinite(regularization):
             raise InputError(f"regularization={regularization!r}: expected a finite value >= 0")
 
+        if verify and hold:
+            raise InputError("verify=True compares with Exudyn's eigenvalues of the system as built; "
+                             "it cannot check a calibration with held sensors (hold=...)")
         if builder is not None:
             system = builder(design.ratios(x_start))
             if not isinstance(system, CalibrationSystem):
                 raise InputError("builder: expected it to return a CalibrationSystem")
         t_lin = time.perf_counter()
-        lin = linearise_design(system, design)
+        lin = linearise_design(system, design).held(hold)
         t_lin = time.perf_counter() - t_lin
         tf, tz, channels, t_shapes = _target_arrays(target, lin.sensor_names)
         rows_idx = [lin.sensor_names.index(c) for c in channels]
@@ -366,6 +374,7 @@ def calibrate(
             "n_coordinates": lin.size,
             "n_variables": design.n_variables,
             "n_targets": int(tf.size),
+            "held_sensors": list(hold),
         }
         result = CalibrationResult(
             rows=tuple(rows),
