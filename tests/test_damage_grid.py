@@ -44,19 +44,24 @@ def mini_builder(bodies, exudyn_mesh="used"):
     return build
 
 
+def linkage_values(bodies, damping="constant-1") -> dict:
+    """The truth's drive linkage: its mass on a spring resonating at LINKAGE_HZ with the drive's mass."""
+    from exudyn_study.model import linearise
+
+    lin0 = linearise(mini_builder(bodies)(1, damping))
+    mass = 20.0
+    m_eff = float(lin0.drive_shape @ lin0.full_mass @ lin0.drive_shape) + mass
+    return {"stiffness_n_per_m": (2 * math.pi * LINKAGE_HZ) ** 2 * m_eff, "damping_n_s_per_m": 2e3,
+            "mass_kg": mass}
+
+
 def truth_plant(bodies, damping="constant-1"):
     """The 'measured' system: mini frame + a drive linkage resonating at LINKAGE_HZ."""
-    from exudyn_study.model import linearise
     from exudyn_study.physics import entry
     from exudyn_study.sweep.plant import ModelPlant
 
-    build = mini_builder(bodies)
-    lin0 = linearise(build(1, damping))
-    mass = 20.0
-    m_eff = float(lin0.drive_shape @ lin0.full_mass @ lin0.drive_shape) + mass
-    model = build(1, damping)
-    entry("drive_linkage_compliance").apply(model, stiffness_n_per_m=(2 * math.pi * LINKAGE_HZ) ** 2 * m_eff,
-                                            damping_n_s_per_m=2e3, mass_kg=mass)
+    model = mini_builder(bodies)(1, damping)
+    entry("drive_linkage_compliance").apply(model, **linkage_values(bodies, damping))
     return ModelPlant(model, label="truth")
 
 
@@ -198,6 +203,9 @@ def _no_build(variant, damping):  # bad input must be rejected before any model 
         (dict(control=("ARFVZ", "ARFXZ")), r"control channel\(s\) ARFXZ missing"),
         (dict(out_dir="/nonexistent/dir"), r"out_dir '/nonexistent/dir' does not exist"),
         (dict(calibrations={2: {}}), r"calibrations for model\(s\) \[2\] not in the grid"),
+        (dict(dampings=("diagnosed",)), r"damping 'diagnosed' needs a diagnosis"),
+        (dict(diagnosis={"mismatch_found": True, "findings": [], "unexplained": [],
+                         "metadata": {"model": 3}}), r"lacks 'model_entries'"),
     ],
 )
 def test_bad_input_is_rejected_before_building(measured, kwargs, match):
@@ -376,3 +384,51 @@ def test_reading_names_the_best_damping_per_sensor_group(calibrated_grid):
     for g, per in groups.items():
         best = min(per, key=lambda d: np.median(np.abs(np.log(per[d]))))
         assert f"  {g}: best {best} " in text
+
+
+def _diagnosis(entries, gains=None, model=1):
+    fit = {"train_before": 1.0, "train_after": 0.1, "holdout_before": 1.0, "holdout_after": 0.1,
+           "metric": "m"}
+    return {"format": "exudyn_study.diagnosis", "format_version": 1, "mismatch_found": True,
+            "findings": [{"physics": e["physics"],
+                          "location": {"sensors": [], "component": None, "interface": None},
+                          "band_hz": None, "level_dependent": False, "explanation": "", "parameters": {},
+                          "fit": fit} for e in entries],
+            "unexplained": [], "metadata": {"model": model, "model_entries": entries,
+                                            "output_gains": gains or {}}}
+
+
+def test_apply_diagnosis_rebuilds_the_fitted_model(bodies, truth):
+    """The fitted model rebuilt from a diagnosis JSON is the model with the entries applied: same
+    linearisation as applying the catalogue entry by hand (the truth), sensor gains multiplied in."""
+    from exudyn_study.diagnose.fitted import apply_diagnosis
+    from exudyn_study.sweep.plant import ModelPlant
+
+    lin_truth = truth.lin
+    linkage = linkage_values(bodies)
+    d = _diagnosis([{"physics": "drive_linkage_compliance", "location": None, "values": linkage}],
+                   gains={"ARFMZ": 1.1, "ARFVZ": 1.0})
+    plant = ModelPlant(apply_diagnosis(mini_builder(bodies)(1, "constant-1"), d))
+    np.testing.assert_allclose(plant.lin.stiffness, lin_truth.stiffness, rtol=1e-12, atol=1e-6)
+    assert plant.model.output_gains == {"ARFMZ": 1.1}
+    with pytest.raises(InputError, match="diagnosis of model 3 cannot be applied to model 1"):
+        apply_diagnosis(mini_builder(bodies)(1, "constant-1"), _diagnosis([], model=3))
+    with pytest.raises(InputError, match="lacks 'model_entries'"):
+        apply_diagnosis(mini_builder(bodies)(1, "constant-1"),
+                        {**d, "metadata": {"model": 1}})
+
+
+def test_diagnosed_column_runs_the_fitted_model_on_its_variant_only(bodies, measured, truth):
+    from exudyn_study.sweep.damage_grid import run_grid
+
+    d = _diagnosis([{"physics": "drive_linkage_compliance", "location": None,
+                     "values": linkage_values(bodies)}])
+    res = run_grid({"test": measured["test"]}, models=(1, 2), builder=mini_builder(bodies),
+                   probe_builder=mini_builder(bodies, "all"), diagnosis=d, target=held_modes_target(truth))
+    assert [(c.model, c.damping) for c in res.cells] == [
+        (1, "adams-default"), (1, "step"), (1, "suggested"), (1, "diagnosed"),
+        (2, "adams-default"), (2, "step"), (2, "suggested")]
+    assert set(res.calibrations) == {(1, "suggested"), (1, "diagnosed"), (2, "suggested")}
+    # the fitted model has the truth's linkage mode, so its pairing with the truth's modes is complete
+    assert not res.calibrations[(1, "diagnosed")]["unpaired_targets"]
+    assert "model 2: no diagnosed column (the diagnosis was made on model 1)" in res.reading()
