@@ -49,7 +49,7 @@ def diagnosis_variant(diagnosis: Diagnosis) -> int | None:
     return int(v) if isinstance(v, (int, float)) and not isinstance(v, bool) else None
 
 
-def apply_diagnosis(model, diagnosis: Diagnosis | Mapping | str | os.PathLike):
+def apply_diagnosis(model, diagnosis: Diagnosis | Mapping | str | os.PathLike, exclude=()):
     """Apply a rig diagnosis's findings to ``model`` (built, not yet assembled).
 
     Parameters
@@ -58,6 +58,10 @@ def apply_diagnosis(model, diagnosis: Diagnosis | Mapping | str | os.PathLike):
         A model of the variant the diagnosis was made on, not assembled.
     diagnosis : Diagnosis, mapping or path
         The diagnosis (``exudyn-study diagnose --json``).
+    exclude : sequence of str
+        Catalogue entries not to apply, e.g. ``('modal_damping',)`` when the bodies' modal
+        damping is set otherwise (a ``modal_damping`` finding scales the damping the diagnosis
+        was run with).
 
     Returns
     -------
@@ -82,7 +86,8 @@ def apply_diagnosis(model, diagnosis: Diagnosis | Mapping | str | os.PathLike):
     for k, e in enumerate(d.metadata.get("model_entries") or []):
         if not isinstance(e, Mapping) or not {"physics", "location", "values"} <= set(e):
             raise InputError(f"diagnosis model_entries[{k}] = {e!r}; expected physics, location, values")
-        entry(str(e["physics"])).apply(model, e["location"], **dict(e["values"]))
+        if str(e["physics"]) not in exclude:
+            entry(str(e["physics"])).apply(model, e["location"], **dict(e["values"]))
     gains = getattr(model, "output_gains", None)
     for channel, g in (d.metadata.get("output_gains") or {}).items():
         if g is None or not math.isfinite(float(g)) or float(g) <= 0:

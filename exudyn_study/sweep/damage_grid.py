@@ -41,8 +41,9 @@ Damping choices
   the sensors and frequency. Models 1/2: one ratio per chassis mode below 500 Hz; Model 3: one
   per body. A calibration file per model replaces it (``calibrations``).
 - ``'diagnosed'``: the model a rig diagnosis fitted (``diagnosis``: its findings applied,
-  :func:`exudyn_study.diagnose.fitted.apply_diagnosis`), calibrated the same way; only for the
-  model variant the diagnosis was made on.
+  :func:`exudyn_study.diagnose.fitted.apply_diagnosis`, but for ``modal_damping`` findings:
+  the body damping is calibrated), calibrated the same way; only for the model variant the
+  diagnosis was made on.
 
 Every calibration's pairing (MAC, frequency error, unpaired rig modes) is kept in
 :attr:`GridResult.calibrations` and written next to the grid.
@@ -674,7 +675,8 @@ def _run_grid(measured, models, dampings, signals, iterate, out_dir, *, control,
     probe_builder = probe_builder or builder
 
     notes: list[str] = []
-    need_target = any(d in CALIBRATED and variant not in calibrations for d in dampings for variant in models)
+    need_target = "diagnosed" in dampings or any(
+        d in CALIBRATED and variant not in calibrations for d in dampings for variant in models)
     if target is None and need_target:
         if "white-noise" in recs:
             t0 = time.perf_counter()
@@ -688,8 +690,8 @@ def _run_grid(measured, models, dampings, signals, iterate, out_dir, *, control,
                          "(frequencies only, no shapes)")
             say(notes[-1])
 
-    def fitted(model):
-        return apply_diagnosis(model, diagnosis) if diagnosis is not None else model
+    def fitted(model):  # the body damping is calibrated: a modal_damping finding would scale it again
+        return apply_diagnosis(model, diagnosis, exclude=("modal_damping",))
 
     plants: dict[tuple[int, str], ModelPlant] = {}
     cal_results: dict[tuple[int, str], dict] = {}
@@ -699,7 +701,7 @@ def _run_grid(measured, models, dampings, signals, iterate, out_dir, *, control,
         if key not in plants:
             t0 = time.perf_counter()
             diagnosed = name == "diagnosed"
-            if name in CALIBRATED and variant not in calibrations:
+            if diagnosed or (name in CALIBRATED and variant not in calibrations):
                 probe = probe_builder(variant, "adams-default")
                 if diagnosed:
                     probe = fitted(probe)
