@@ -31,7 +31,8 @@ acceptance of issue 33:
 CSV, calibrations, pairing, reading and plots go to ``--out``.
 
     python benchmarks/bench_damage_grid.py [--measured-dir DIR] [--scenario thesis|none]
-        [--diagnosis FILE] [--models 1 2 3] [--out DIR] [--skip-grid] [--skip-linkage] [--no-results]
+        [--diagnosis FILE] [--target MODES.json] [--models 1 2 3] [--tolerance 0.05] [--out DIR]
+        [--skip-grid] [--skip-linkage] [--no-results]
 
 The iteration errors of part 1, the summary per grid cell, the acceptance figures and the wall
 time of part 2 go with date, commit and load to
@@ -186,8 +187,9 @@ def acceptance(res, scenario: str) -> dict:
 
 def full_grid(measured_dir: str | None, out: Path, cache_dir=None, iterations: int = 5,
               scenario: str = "thesis", diagnosis: str | None = None, models=(1, 2, 3),
-              tolerance: float = 0.05) -> dict:
+              tolerance: float = 0.05, target: str | None = None) -> dict:
     """Run the study grid (part 2); return its wall time, the summary per cell and the acceptance figures."""
+    from exudyn_study.identify.model import read_modes_json
     from exudyn_study.sweep.damage_grid import measured_recordings, run_grid
 
     if measured_dir is None:
@@ -206,6 +208,7 @@ def full_grid(measured_dir: str | None, out: Path, cache_dir=None, iterations: i
     t0 = time.perf_counter()
     res = run_grid(measured, models=models, out_dir=out, cache_dir=cache_dir, max_iter=iterations,
                    tol=tolerance, diagnosis=diagnosis,
+                   target=None if target is None else read_modes_json(target),
                    progress=lambda s: print(f"  [{time.perf_counter() - t0:6.1f} s] {s}", flush=True))
     print()
     print(res.summary())
@@ -262,6 +265,9 @@ def main() -> None:
     p.add_argument("--tolerance", type=float, default=0.05,
                    help="grid: control rms error to stop the drive iteration at (default 0.05; damage goes "
                         "with the 5th power, so a 100 +- 5 %% check needs 0.01)")
+    p.add_argument("--target", default=None,
+                   help="target modes of the calibration (a modes JSON; default: the EMA of the white-noise "
+                        "recording, identified in the run and written as calibration_target_modes.json)")
     p.add_argument("--skip-grid", action="store_true")
     p.add_argument("--skip-linkage", action="store_true")
     p.add_argument("--cache-dir", default=None)
@@ -281,7 +287,8 @@ def main() -> None:
             figures["linkage"] = linkage_acceptance(args.model, args.damping, args.duration, args.cache_dir)
         if not args.skip_grid:
             figures["grid"] = full_grid(args.measured_dir, out, args.cache_dir, args.iterations,
-                                        args.scenario, args.diagnosis, tuple(args.models), args.tolerance)
+                                        args.scenario, args.diagnosis, tuple(args.models), args.tolerance,
+                                        args.target)
     print(f"\ntotal {time.perf_counter() - t0:.1f} s")
     if not args.no_results:
         path = write_results('bench_damage_grid', figures, args=args, start=run, case=args.scenario)
