@@ -204,7 +204,7 @@ def calibrate(
             else np.broadcast_to(np.asarray(prior, float), (design.n_variables,)).copy()
         )
         validate_ratios(prior_v, "prior damping ratio")
-        prior_v = np.minimum(prior_v, design.upper)
+        prior_v = np.clip(prior_v, design.lower, design.upper)
         x_start = (
             prior_v.copy()
             if x0 is None
@@ -212,7 +212,7 @@ def calibrate(
         )
         if x_start.size != design.n_variables:
             raise InputError(f"x0 has {x_start.size} values; the design has {design.n_variables} variables")
-        x_start = np.minimum(x_start, design.upper)
+        x_start = np.clip(x_start, design.lower, design.upper)
         w_t = np.ones(tf.size) if weights is None else np.asarray(weights, float).ravel()
         if w_t.size != tf.size or not np.all(np.isfinite(w_t)) or np.any(w_t < 0):
             raise InputError(f"weights: expected {tf.size} finite values >= 0 (one per target mode)")
@@ -307,7 +307,7 @@ def calibrate(
                 fun,
                 x,
                 jac=jac,
-                bounds=(0.0, design.upper),
+                bounds=(design.lower, design.upper),
                 method="trf",
                 ftol=1e-14,
                 xtol=1e-14,
@@ -347,7 +347,7 @@ def calibrate(
             rows.append(ModeRow(None, None, None, float(tf[ti]), float(tz[ti]), None, None))
         rows.sort(key=lambda r: r.frequency_hz if r.frequency_hz is not None else r.target_frequency_hz)
 
-        ratios = design.ratios(np.clip(x, 0.0, design.upper))
+        ratios = design.ratios(np.clip(x, design.lower, design.upper))
         check = None
         if verify:
             if builder is None:

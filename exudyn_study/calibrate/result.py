@@ -1,5 +1,4 @@
-"""The calibration's result: the Tables 5/7 analogue and its JSON (``format`` 'exudyn_study.calibration').
-"""
+"""The calibration's result: the Tables 5/7 analogue and its JSON (``format`` 'exudyn_study.calibration')."""
 
 from __future__ import annotations
 

@@ -15,6 +15,7 @@ calibration alone can do.
 
 from __future__ import annotations
 
+import dataclasses
 import json
 import logging
 import os
@@ -42,6 +43,15 @@ _CALIBRATION_FORMAT = "exudyn_study.calibration"
 _CAL_FREQ_RTOL = 0.01  # a calibration belongs to the same mesh: mode frequencies agree to 1 %
 
 
+#: bounds of a calibrated body-mode damping ratio: what a body mode of a bolted steel structure
+#: carries (thesis Table 6: 1.5-8 %; the thesis EMA: 0.6-5.4 %). Where the model's modes are not the
+#: rig's (missing physics), an unbounded fit drives body modes to 0 % or 100 % to move the wrong
+#: system modes, and a body mode at 0 % turns that into pseudo damage orders of magnitude off
+CALIBRATION_BOUNDS = (0.005, 0.20)
+#: largest relative frequency difference of a calibrated pair (MAC >= 0.5 too). The nominal models'
+#: modes sit up to ~20 % off the rig's where they lack physics; a tighter limit leaves those modes
+#: unpaired at the prior damping, which on the thesis scenario predicts the damage worse
+CALIBRATION_MAX_FREQUENCY_ERROR = 0.30
 #: calibrate_cli's default cut-off: lower ones leave a damping floor that no variable removes
 _SUGGESTED_CUTOFF_HZ = 500.0
 
@@ -208,7 +218,8 @@ def ema_target(recording, references=None, *, band_hz=(3.0, 50.0), resolution_hz
                                     "estimator": estimator})
 
 
-def calibrate_model(model, target, cutoff_hz: float = _SUGGESTED_CUTOFF_HZ, hold=None):
+def calibrate_model(model, target, cutoff_hz: float = _SUGGESTED_CUTOFF_HZ, hold=None,
+                    bounds=CALIBRATION_BOUNDS, max_frequency_error: float = CALIBRATION_MAX_FREQUENCY_ERROR):
     """Calibrate a rig model's flexible-body damping so that its system modes carry the target's.
 
     Parameters
@@ -217,8 +228,8 @@ def calibrate_model(model, target, cutoff_hz: float = _SUGGESTED_CUTOFF_HZ, hold
         Built with the whole Exudyn mesh (the sensor shapes are read at the sensors' mesh
         nodes); assembled here if not yet. The rear foundation keeps its damping.
     target : ModalModel
-        Target modes; with shapes, pairs need MAC >= 0.5 at the common sensors and at most
-        30 % frequency difference (:func:`exudyn_study.linear.pairing.pair_modes`).
+        Target modes; with shapes, pairs need MAC >= 0.5 at the common sensors
+        (:func:`exudyn_study.linear.pairing.pair_modes`).
     cutoff_hz : float
         Models 1/2: one variable per chassis mode below it, 100 % above. Model 3: one
         variable per body (all its modes), as thesis Table 6.
@@ -227,6 +238,11 @@ def calibrate_model(model, target, cutoff_hz: float = _SUGGESTED_CUTOFF_HZ, hold
         (``metadata['references']``, else ``ARFVZ``): an EMA on transmissibilities sees the
         chassis with its reference held (:func:`exudyn_study.virtual_rig.thesis.references_held`;
         the two references move together, so holding one is what the identification sees).
+    bounds : (float, float)
+        Bounds of every calibrated ratio (default :data:`CALIBRATION_BOUNDS`).
+    max_frequency_error : float
+        Largest relative frequency difference of a pair (default
+        :data:`CALIBRATION_MAX_FREQUENCY_ERROR`); pairs also need MAC >= 0.5.
 
     Returns
     -------
@@ -247,13 +263,14 @@ def calibrate_model(model, target, cutoff_hz: float = _SUGGESTED_CUTOFF_HZ, hold
     bodies = {n: h for n, h in model.bodies.items() if n != "rear_foundation"}
     design = (DampingDesign.per_body(bodies) if model.variant == 3
               else DampingDesign.per_mode(bodies, cutoff_hz))
+    design = dataclasses.replace(design, lower=float(bounds[0]), upper=float(bounds[1]))
     if hold is None:
         from exudyn_study.model.sensors import REFERENCES
 
         hold = tuple(target.metadata.get("references") or REFERENCES)[:1]
     system = system_from_model(model)
     hold = tuple(h for h in hold if h in system.sensors)
-    result = calibrate(system, design, target, hold=hold)
+    result = calibrate(system, design, target, hold=hold, freq_tol=max_frequency_error)
     log.info("damping of model %s calibrated on %s: %d of %d target modes paired, max |error| %.3f pp",
              model.variant, target.metadata.get("source", "the target"), len(result.paired), len(target),
              100 * result.max_abs_error)
