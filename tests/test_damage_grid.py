@@ -350,9 +350,9 @@ def test_suggested_damping_is_calibrated_on_the_modes_with_shapes(calibrated_gri
         assert r["mac"] > 0.99
         # |lambda| moves with non-proportional damping: the body modes above the band differ from the truth's
         assert r["frequency_hz"] == pytest.approx(r["target_frequency_hz"], rel=1e-3)
-        # 0.3 pp: the floor the body modes above the cut-off leave (fixed at 100 %, as the thesis's): the
-        # 29 Hz mode, 0.13 % in the truth, cannot go below 0.42 %
-        assert r["damping_ratio"] == pytest.approx(r["target_damping_ratio"], abs=3e-3)
+        # 0.35 pp: the floor that the body modes above the cut-off (fixed at 100 %, as the thesis's) and the
+        # calibrated ones' lower bound (0.5 %) leave: the 29 Hz mode, 0.13 % in the truth, stays at 0.44 %
+        assert r["damping_ratio"] == pytest.approx(r["target_damping_ratio"], abs=3.5e-3)
     assert sum(abs(r["error"]) < 1e-5 for r in paired) >= 4
     for s in ("white-noise", "test"):
         calibrated = np.abs(np.log(result.cell(1, "suggested", s).damage.ratios))
