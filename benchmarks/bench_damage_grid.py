@@ -12,20 +12,37 @@ white-noise response passes the acquisition chain (noise, anti-alias filter, ADC
     updated from the runs (what a rig controller does when its model lacks a resonance);
 (c) as (b) with H kept fixed (the plain scheme of Fig. 21): diverges above the resonance.
 
-Part 2: the full grid, Models 1-3 x {adams-default, step, suggested} x {white-noise, test,
-test-50}, against the measured recordings in ``--measured-dir`` (``<name>_<signal>.h5``);
-without it, they are made first by the virtual test rig's ``thesis`` scenario (timed apart).
-Prints the wall time and the summary table; CSV and plots go to ``--out``.
+Part 2: the full grid, Models 1-3 x {adams-default, step, suggested[, diagnosed]} x
+{white-noise, test, test-50}, against the measured recordings in ``--measured-dir``
+(``<name>_<signal>.h5``); without it, they are made first by the virtual test rig's
+``--scenario`` (default ``thesis``; timed apart). ``suggested`` is each model calibrated on the
+EMA of the white-noise recording (shapes, MAC pairing); ``--diagnosis FILE`` (a rig diagnosis
+JSON of the same recordings) adds the ``diagnosed`` column. Prints the wall time, the summary
+table, the pairing of model and EMA modes, the grid's reading per sensor group and the
+acceptance of issue 33:
 
-    python benchmarks/bench_damage_grid.py [--measured-dir DIR] [--out DIR] [--skip-grid] [--no-results]
+- scenario ``thesis``: on every model the calibrated damping's median relative damage (over
+  the sensors and signals) closer to 100 % than Adams default (as the factor ``exp |log r|``);
+  on the bracket and tank sensors at least as close as STEP; the diagnosed column within
+  50-200 % on at least 18 of the 21 z sensors (each signal);
+- scenario ``none`` (truth: Model 1 with Adams default): Model 1 with Adams default within
+  100 +- 5 % on every sensor (each signal): the pipeline check.
 
-The iteration errors of part 1 and the summary per grid cell of part 2 go with date, commit and
-load to ``benchmarks/results/bench_damage_grid.json`` (``--no-results``: not written).
+CSV, calibrations, pairing, reading and plots go to ``--out``.
+
+    python benchmarks/bench_damage_grid.py [--measured-dir DIR] [--scenario thesis|none]
+        [--diagnosis FILE] [--target MODES.json] [--models 1 2 3] [--tolerance 0.05] [--out DIR]
+        [--skip-grid] [--skip-linkage] [--no-results]
+
+The iteration errors of part 1, the summary per grid cell, the acceptance figures and the wall
+time of part 2 go with date, commit and load to
+``benchmarks/results/bench_damage_grid--<scenario>.json`` (``--no-results``: not written).
 """
 
 from __future__ import annotations
 
 import argparse
+import json
 import math
 import tempfile
 import time
@@ -114,8 +131,65 @@ def linkage_acceptance(variant: int, damping: str, duration_s: float, cache_dir=
     }
 
 
-def full_grid(measured_dir: str | None, out: Path, cache_dir=None, iterations: int = 5) -> dict:
-    """The study grid (part 2); return its wall time and the summary per cell."""
+def _miss(r) -> float:
+    """Median factor by which ratios miss 1 (``exp |log r|``)."""
+    r = np.asarray(r, float)
+    r = r[np.isfinite(r) & (r > 0)]
+    return float(np.exp(np.median(np.abs(np.log(r))))) if r.size else math.nan
+
+
+def acceptance(res, scenario: str) -> dict:
+    """Issue 33's acceptance figures of a grid (see the module docstring)."""
+    from exudyn_study.sweep.damage_grid import sensor_group
+
+    models = list(dict.fromkeys(c.model for c in res.cells))
+    dampings = set(c.damping for c in res.cells)
+    out: dict = {"scenario": scenario}
+    if scenario == "none":
+        if 1 in models and "adams-default" in dampings:
+            cells = [c for c in res.cells if c.model == 1 and c.damping == "adams-default"]
+            dev = [float(np.max(np.abs(c.damage.ratios - 1.0))) for c in cells]
+            out["model1_adams_default_max_deviation_pct"] = {
+                c.signal: 100 * d for c, d in zip(cells, dev, strict=True)}
+            out["pipeline_check_pass"] = bool(max(dev) <= 0.05)
+        return out
+    per_model = {}
+    for m in models:
+        entry = {}
+        for d in ("adams-default", "step", "suggested", "diagnosed"):
+            cells = [c for c in res.cells if c.model == m and c.damping == d]
+            if not cells:
+                continue
+            all_r = np.concatenate([c.damage.ratios for c in cells])
+            frame = np.concatenate([[ch.ratio for ch in c.damage.channels
+                                     if sensor_group(ch.name) in ("tanks", "brackets")] for c in cells])
+            entry[d] = {"median_pct": 100 * float(np.nanmedian(all_r)), "miss_factor": _miss(all_r),
+                        "brackets_tanks_median_pct": (
+                            100 * float(np.nanmedian(frame)) if frame.size else None),
+                        "brackets_tanks_miss_factor": _miss(frame),
+                        "within_50_200": {
+                            c.signal: int(np.sum((c.damage.ratios >= 0.5) & (c.damage.ratios <= 2.0)))
+                            for c in cells},
+                        "sensors": int(cells[0].damage.ratios.size)}
+        if "suggested" in entry and "adams-default" in entry:
+            entry["suggested_closer_than_adams"] = (
+                entry["suggested"]["miss_factor"] < entry["adams-default"]["miss_factor"])
+        if "suggested" in entry and "step" in entry:
+            entry["suggested_brackets_tanks_as_close_as_step"] = (
+                entry["suggested"]["brackets_tanks_miss_factor"]
+                <= entry["step"]["brackets_tanks_miss_factor"])
+        if "diagnosed" in entry:
+            entry["diagnosed_18_of_21"] = all(v >= 18 for v in entry["diagnosed"]["within_50_200"].values())
+        per_model[str(m)] = entry
+    out["models"] = per_model
+    return out
+
+
+def full_grid(measured_dir: str | None, out: Path, cache_dir=None, iterations: int = 5,
+              scenario: str = "thesis", diagnosis: str | None = None, models=(1, 2, 3),
+              tolerance: float = 0.05, target: str | None = None) -> dict:
+    """Run the study grid (part 2); return its wall time, the summary per cell and the acceptance figures."""
+    from exudyn_study.identify.model import read_modes_json
     from exudyn_study.sweep.damage_grid import measured_recordings, run_grid
 
     if measured_dir is None:
@@ -124,16 +198,24 @@ def full_grid(measured_dir: str | None, out: Path, cache_dir=None, iterations: i
         measured_dir = str(out / "measured")
         Path(measured_dir).mkdir(parents=True, exist_ok=True)
         t0 = time.perf_counter()
-        run_virtual_test("thesis", ("white-noise", "test", "test-50"), measured_dir, cache_dir=cache_dir)
-        print(f"\n== measured recordings: virtual rig 'thesis' scenario, {time.perf_counter() - t0:.1f} s "
+        run_virtual_test(scenario, ("white-noise", "test", "test-50"), measured_dir, cache_dir=cache_dir)
+        print(f"\n== measured recordings: virtual rig {scenario!r} scenario, "
+              f"{time.perf_counter() - t0:.1f} s "
               f"-> {measured_dir}")
     measured = measured_recordings(measured_dir)
-    print(f"\n== full grid: Models 1-3 x adams-default/step/suggested x {'/'.join(measured)}")
+    print(f"\n== full grid: Models {list(models)} x adams-default/step/suggested"
+          f"{'/diagnosed' if diagnosis else ''} x {'/'.join(measured)}")
     t0 = time.perf_counter()
-    res = run_grid(measured, out_dir=out, cache_dir=cache_dir, max_iter=iterations,
+    res = run_grid(measured, models=models, out_dir=out, cache_dir=cache_dir, max_iter=iterations,
+                   tol=tolerance, diagnosis=diagnosis,
+                   target=None if target is None else read_modes_json(target),
                    progress=lambda s: print(f"  [{time.perf_counter() - t0:6.1f} s] {s}", flush=True))
     print()
     print(res.summary())
+    print()
+    print(res.pairing_report())
+    print()
+    print(res.reading())
     print(f"\n  grid wall time {res.wall_time_s:.1f} s for {len(res.cells)} cells; "
           f"{len(res.files)} files in {out}")
     # per model and damping: relative damage per z sensor for white noise (the thesis's Figs 22-24)
@@ -156,7 +238,16 @@ def full_grid(measured_dir: str | None, out: Path, cache_dir=None, iterations: i
                       "relative_damage_max_pct": float(r.max()) if r.size else None,
                       "sensors_within_50_200_pct": int(np.sum((r >= 50) & (r <= 200))),
                       "sensors": int(r.size), "wall_s": c.wall_s})
-    return {"wall_s": res.wall_time_s, "cells": cells}
+    acc = acceptance(res, scenario)
+    print("\n  acceptance (issue 33):")
+    print("  " + json.dumps(acc, indent=1).replace("\n", "\n  "))
+    pairing = {f"model{m}_{d}": {
+        "paired": [{k: r[k] for k in ("frequency_hz", "damping_ratio", "target_frequency_hz",
+                                      "target_damping_ratio", "mac")}
+                   for r in cal["modes"] if r["target_frequency_hz"] is not None],
+        "unpaired_targets": cal["unpaired_targets"]} for (m, d), cal in res.calibrations.items()}
+    return {"wall_s": res.wall_time_s, "cells": cells, "acceptance": acc, "pairing": pairing,
+            "reading": res.reading().splitlines()}
 
 
 def main() -> None:
@@ -167,6 +258,16 @@ def main() -> None:
     p.add_argument("--damping", default="step", help="its damping (default step)")
     p.add_argument("--duration", type=float, default=80.0, help="its white-noise duration, s (default 80)")
     p.add_argument("--iterations", type=int, default=5, help="grid: max drive updates per cell (default 5)")
+    p.add_argument("--scenario", default="thesis",
+                   help="virtual-rig scenario of the measured recordings (thesis or none; default thesis)")
+    p.add_argument("--diagnosis", default=None, help="rig diagnosis JSON: adds the 'diagnosed' column")
+    p.add_argument("--models", type=int, nargs="+", default=[1, 2, 3], help="grid models (default 1 2 3)")
+    p.add_argument("--tolerance", type=float, default=0.05,
+                   help="grid: control rms error to stop the drive iteration at (default 0.05; damage goes "
+                        "with the 5th power, so a 100 +- 5 %% check needs 0.01)")
+    p.add_argument("--target", default=None,
+                   help="target modes of the calibration (a modes JSON; default: the EMA of the white-noise "
+                        "recording, identified in the run and written as calibration_target_modes.json)")
     p.add_argument("--skip-grid", action="store_true")
     p.add_argument("--skip-linkage", action="store_true")
     p.add_argument("--cache-dir", default=None)
@@ -185,10 +286,13 @@ def main() -> None:
         if not args.skip_linkage:
             figures["linkage"] = linkage_acceptance(args.model, args.damping, args.duration, args.cache_dir)
         if not args.skip_grid:
-            figures["grid"] = full_grid(args.measured_dir, out, args.cache_dir, args.iterations)
+            figures["grid"] = full_grid(args.measured_dir, out, args.cache_dir, args.iterations,
+                                        args.scenario, args.diagnosis, tuple(args.models), args.tolerance,
+                                        args.target)
     print(f"\ntotal {time.perf_counter() - t0:.1f} s")
     if not args.no_results:
-        print(f"key figures {write_results('bench_damage_grid', figures, args=args, start=run)}")
+        path = write_results('bench_damage_grid', figures, args=args, start=run, case=args.scenario)
+        print(f"key figures {path}")
 
 
 if __name__ == "__main__":

@@ -174,6 +174,30 @@ def test_eigenvalue_derivatives_match_central_differences(builder, per_mode):
         np.testing.assert_allclose(m.d_frequency_hz[:, j], df, atol=1e-5 * np.abs(m.frequency_hz).max() / 100)
 
 
+def test_holding_a_sensor_interlaces_the_frequencies_and_keeps_exact_derivatives(builder, per_mode):
+    """One more constraint (the EMA reference held): the sensor's output vanishes in every mode, and
+    Rayleigh's theorem of constraint interlaces the frequencies, f_k <= f_held,k <= f_k+1 (one
+    constraint, light damping); the damping stays affine, so the derivatives stay exact."""
+    lin = linearise_design(builder(per_mode.ratios(np.full(per_mode.n_variables, 0.02))), per_mode)
+    held = lin.held(["B2Y"])
+    x = np.full(per_mode.n_variables, 1e-3)
+    free, m = lin.modes(x), held.modes(x, derivatives=True)
+    assert held.size == lin.size - 1
+    assert np.abs(m.shapes[list(held.sensor_names).index("B2Y")]).max() < 1e-9
+    k = min(m.frequency_hz.size, free.frequency_hz.size - 1)
+    assert np.all(m.frequency_hz[:k] >= free.frequency_hz[:k] * (1 - 1e-6))
+    assert np.all(m.frequency_hz[:k] <= free.frequency_hz[1:k + 1] * (1 + 1e-6))
+    assert np.any(m.frequency_hz[:k] > free.frequency_hz[:k] * 1.01)  # the Y bending modes stiffen
+    j, h = 0, 1e-6
+    xp, xm = x.copy(), x.copy()
+    xp[j] += h
+    xm[j] -= h
+    dz = (held.modes(xp).damping_ratio - held.modes(xm).damping_ratio) / (2 * h)
+    np.testing.assert_allclose(m.d_damping[:, j], dz, atol=1e-7)
+    with pytest.raises(InputError, match=r"held sensor\(s\) \['nope'\]"):
+        lin.held(["nope"])
+
+
 def test_sensor_shapes_follow_the_beam_physics(builder, per_mode):
     """First mode of a cantilever: tip moves most, shapes grow along the beam, Y/Z separate."""
     lin = linearise_design(builder(per_mode.ratios(np.full(per_mode.n_variables, 0.02))), per_mode)

@@ -65,10 +65,7 @@ def mini_build_model(bodies, monkeypatch):
         return build_model_from_bodies(bodies, variant, damping=damping, sensors=FRAME_SENSORS,
                                        exudyn_mesh="used")
 
-    import exudyn_study.model.variants as variants
-
     monkeypatch.setattr(model_pkg, "build_model", build)
-    monkeypatch.setattr(variants, "build_model", build)  # the CLI imports it from there
     return calls
 
 

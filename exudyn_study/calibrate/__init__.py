@@ -1,5 +1,7 @@
-"""Damping calibration: flexible-body modal damping chosen so that the system's damped modes
-match identified (target) modes (thesis Section 6).
+"""Damping calibration: flexible-body modal damping for the system's damped modes to match targets.
+
+The flexible bodies' modal damping is chosen so that the system's damped modes match
+identified (target) modes (thesis Section 6).
 
 ``system``: the rig seam (:class:`CalibrationSystem`, :func:`system_from_model`);
 ``design``: the design variables (:class:`DampingDesign`); ``linearised``: the system
@@ -22,5 +24,5 @@ from exudyn_study.calibrate.system import CalibrationSystem, SensorPoint, system
 from exudyn_study.linear.pairing import Pairing, pair_modes
 
 __all__ = ["SensorPoint", "CalibrationSystem", "DampingDesign", "LinearisedSystem", "DesignModes", "Pairing",
-           "ModeRow", "CalibrationResult", "linearise_design", "pair_modes", "calibrate", "exudyn_damped_modes",
-           "system_from_model", "FORMAT_NAME"]
+           "ModeRow", "CalibrationResult", "linearise_design", "pair_modes", "calibrate",
+           "exudyn_damped_modes", "system_from_model", "FORMAT_NAME"]

@@ -33,6 +33,8 @@ class DampingDesign:
         One name per design variable.
     upper : float
         Upper bound of every variable (default :data:`~exudyn_study.bodies.damping.MAX_RATIO`).
+    lower : float
+        Lower bound of every variable (default 0).
 
     Notes
     -----
@@ -45,6 +47,7 @@ class DampingDesign:
     fixed_ratios: Mapping[str, np.ndarray]
     variable_names: tuple[str, ...]
     upper: float = MAX_RATIO
+    lower: float = 0.0
 
     def __post_init__(self) -> None:
         freqs = _body_frequencies(self.body_frequencies_hz)
@@ -57,6 +60,9 @@ class DampingDesign:
             raise InputError("damping design: no design variable (is the cut-off below every body mode?)")
         if not 0.0 < float(self.upper) < 1.0:
             raise InputError(f"damping design: upper bound {self.upper!r}: expected in (0, 1)")
+        if not 0.0 <= float(self.lower) < float(self.upper):
+            raise InputError(
+                f"damping design: lower bound {self.lower!r}: expected in [0, upper = {self.upper!r})")
         assign, fixed = {}, {}
         used = np.zeros(len(names), bool)
         for b, f in freqs.items():
@@ -81,6 +87,7 @@ class DampingDesign:
         object.__setattr__(self, "fixed_ratios", fixed)
         object.__setattr__(self, "variable_names", names)
         object.__setattr__(self, "upper", float(self.upper))
+        object.__setattr__(self, "lower", float(self.lower))
 
     @classmethod
     def per_mode(cls, bodies, cutoff_hz: float, above=MAX_RATIO) -> DampingDesign:

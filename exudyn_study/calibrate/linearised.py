@@ -114,6 +114,44 @@ class LinearisedSystem:
         """Number of independent coordinates ``n``."""
         return self.mass.shape[0]
 
+    def held(self, sensors) -> LinearisedSystem:
+        """Return this system with the measured displacement of ``sensors`` held at zero.
+
+        An EMA on transmissibilities (responses over a reference acceleration) sees the poles
+        of the structure with its reference point held, not those of the structure on its
+        drive: the calibration compares like with like by holding the EMA's reference. The
+        admissible motions are the null space ``T`` of the sensors' output rows; mass,
+        stiffness, damping and the design basis are projected onto it (``T^T M T``, ...), so
+        the damping stays affine in the design variables.
+
+        Parameters
+        ----------
+        sensors : sequence of str
+            Sensor names of :attr:`sensor_names` (empty: the system itself).
+
+        Returns
+        -------
+        LinearisedSystem
+
+        Raises
+        ------
+        InputError
+            A name that is not a sensor of the system.
+        """
+        names = list(sensors)
+        if not names:
+            return self
+        missing = [n for n in names if n not in self.sensor_names]
+        if missing:
+            raise InputError(f"held sensor(s) {missing}: not sensors of the system; it has "
+                             f"{list(self.sensor_names)}")
+        t = sla.null_space(self.output[[self.sensor_names.index(n) for n in names]])
+        return LinearisedSystem(
+            mass=t.T @ self.mass @ t, stiffness=t.T @ self.stiffness @ t,
+            damping_fixed=t.T @ self.damping_fixed @ t, basis=t.T @ self.basis, weight=self.weight,
+            variable=self.variable, output=self.output @ t, sensor_names=self.sensor_names,
+            n_variables=self.n_variables)
+
     def damping_matrix(self, x) -> np.ndarray:
         """System damping matrix ``C(x)`` (null-space coordinates)."""
         x = np.asarray(x, float)

@@ -147,6 +147,7 @@ def calibrate(
     max_pairings: int = 5,
     max_evaluations: int = 200,
     verify: bool = False,
+    hold: Sequence[str] = (),
 ) -> CalibrationResult:
     """Choose flexible-body modal damping so that the system modes have the target damping.
 
@@ -178,6 +179,10 @@ def calibrate(
     verify : bool
         Rebuild with the chosen damping (needs a builder) and compare the damped modes with
         Exudyn's ``ComputeODE2Eigenvalues``.
+    hold : sequence of str
+        Sensors whose measured displacement is held at zero in the model's modes
+        (:meth:`LinearisedSystem.held`): the EMA's reference, when the target was identified
+        from transmissibilities. Default none.
 
     Returns
     -------
@@ -199,7 +204,7 @@ def calibrate(
             else np.broadcast_to(np.asarray(prior, float), (design.n_variables,)).copy()
         )
         validate_ratios(prior_v, "prior damping ratio")
-        prior_v = np.minimum(prior_v, design.upper)
+        prior_v = np.clip(prior_v, design.lower, design.upper)
         x_start = (
             prior_v.copy()
             if x0 is None
@@ -207,19 +212,22 @@ def calibrate(
         )
         if x_start.size != design.n_variables:
             raise InputError(f"x0 has {x_start.size} values; the design has {design.n_variables} variables")
-        x_start = np.minimum(x_start, design.upper)
+        x_start = np.clip(x_start, design.lower, design.upper)
         w_t = np.ones(tf.size) if weights is None else np.asarray(weights, float).ravel()
         if w_t.size != tf.size or not np.all(np.isfinite(w_t)) or np.any(w_t < 0):
             raise InputError(f"weights: expected {tf.size} finite values >= 0 (one per target mode)")
         if regularization < 0 or not math.isfinite(regularization):
             raise InputError(f"regularization={regularization!r}: expected a finite value >= 0")
 
+        if verify and hold:
+            raise InputError("verify=True compares with Exudyn's eigenvalues of the system as built; "
+                             "it cannot check a calibration with held sensors (hold=...)")
         if builder is not None:
             system = builder(design.ratios(x_start))
             if not isinstance(system, CalibrationSystem):
                 raise InputError("builder: expected it to return a CalibrationSystem")
         t_lin = time.perf_counter()
-        lin = linearise_design(system, design)
+        lin = linearise_design(system, design).held(hold)
         t_lin = time.perf_counter() - t_lin
         tf, tz, channels, t_shapes = _target_arrays(target, lin.sensor_names)
         rows_idx = [lin.sensor_names.index(c) for c in channels]
@@ -299,7 +307,7 @@ def calibrate(
                 fun,
                 x,
                 jac=jac,
-                bounds=(0.0, design.upper),
+                bounds=(design.lower, design.upper),
                 method="trf",
                 ftol=1e-14,
                 xtol=1e-14,
@@ -339,7 +347,7 @@ def calibrate(
             rows.append(ModeRow(None, None, None, float(tf[ti]), float(tz[ti]), None, None))
         rows.sort(key=lambda r: r.frequency_hz if r.frequency_hz is not None else r.target_frequency_hz)
 
-        ratios = design.ratios(np.clip(x, 0.0, design.upper))
+        ratios = design.ratios(np.clip(x, design.lower, design.upper))
         check = None
         if verify:
             if builder is None:
@@ -366,6 +374,7 @@ def calibrate(
             "n_coordinates": lin.size,
             "n_variables": design.n_variables,
             "n_targets": int(tf.size),
+            "held_sensors": list(hold),
         }
         result = CalibrationResult(
             rows=tuple(rows),

@@ -1793,6 +1793,13 @@ def diagnose_rig(
             figures["pseudo_damage"] = {
                 c: {"measured": 1.0, **v} for c, v in meta["relative_pseudo_damage"].items()
             }
+    # what the findings put into the model, so that the fitted model can be rebuilt from the JSON
+    # (exudyn_study.diagnose.fitted_model): catalogue entry, its location argument, its values
+    meta["model_entries"] = [
+        {"physics": name, "location": loc, "values": dict(values)} for name, loc, values in accepted
+    ]
+    final_gains = np.asarray(ones if gains_r is None else gains_r, float)
+    meta["output_gains"] = {c: float(g) for c, g in zip(channels, final_gains, strict=True)}
     meta["wall_s"] = time.perf_counter() - t_start
     return Diagnosis(True, findings, unexplained, meta)
 

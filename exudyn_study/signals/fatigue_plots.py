@@ -18,7 +18,7 @@ import numpy as np
 from exudyn_study.errors import InputError
 from exudyn_study.signals.fatigue import RelativeDamage
 
-__all__ = ["plot_relative_pseudo_damage"]
+__all__ = ["plot_relative_pseudo_damage", "plot_damage_summary"]
 
 
 def plot_relative_pseudo_damage(
@@ -101,6 +101,93 @@ def plot_relative_pseudo_damage(
         ax.set_title(title)
     fig.tight_layout()
 
+    path = Path(path)
+    fmt = path.suffix.lstrip(".").lower() or "png"
+    directory = path.parent if str(path.parent) else Path(".")
+    if not directory.is_dir():
+        raise InputError(f"plot path {str(path)!r}: directory does not exist")
+    fd, tmp = tempfile.mkstemp(dir=directory, prefix=f".{path.name}.", suffix=f".tmp.{fmt}")
+    os.close(fd)
+    try:
+        fig.savefig(tmp, dpi=dpi, format=fmt)
+        os.replace(tmp, path)
+    finally:
+        if os.path.exists(tmp):
+            os.unlink(tmp)
+    return path
+
+
+def plot_damage_summary(
+    ratios: Mapping[str, Mapping[str, Sequence[float]]],
+    path: str | os.PathLike,
+    *,
+    title: str | None = None,
+    band: tuple[float, float] = (50.0, 200.0),
+    dpi: int = 150,
+) -> Path:
+    """Plot relative pseudo damage per sensor group and case: every value and the group's median.
+
+    Parameters
+    ----------
+    ratios : mapping group -> mapping case -> sequence of float
+        Relative pseudo damage as ratios (1 = measured), e.g. per sensor group (frame,
+        tanks, ...) and damping the values over its sensors and signals.
+    path : str or path-like
+        Output image (suffix chooses the format).
+    title : str, optional
+    band : (float, float)
+        Acceptance band in percent, shaded (default 50-200 %).
+    dpi : int
+
+    Returns
+    -------
+    pathlib.Path
+
+    Raises
+    ------
+    InputError
+        If there is nothing to plot or the directory does not exist.
+    """
+    from matplotlib.figure import Figure
+
+    groups = [g for g, cases in ratios.items() if cases]
+    if not groups:
+        raise InputError("plot_damage_summary: no ratios to plot")
+    cases = list(dict.fromkeys(c for g in groups for c in ratios[g]))
+    fig = Figure(figsize=(max(8.0, 0.45 * len(groups) * len(cases) + 4.0), 4.6))
+    ax = fig.add_subplot()
+    ax.axhspan(*band, color="0.85", zorder=0, label=f"{band[0]:g}-{band[1]:g} %")
+    ax.axhline(100.0, color="k", lw=1.0, ls="--", zorder=1, label="100 % (= measured)")
+    width = 0.8 / len(cases)
+    rng = np.random.default_rng(0)  # fixed jitter: the same figure for the same data
+    allv = []
+    for gi, g in enumerate(groups):
+        for ci, c in enumerate(cases):
+            v = 100.0 * np.asarray(ratios[g].get(c, ()), dtype=float)
+            v = v[np.isfinite(v) & (v > 0)]
+            if not v.size:
+                continue
+            allv.append(v)
+            x0 = gi - 0.4 + (ci + 0.5) * width
+            ax.scatter(x0 + (rng.random(v.size) - 0.5) * 0.6 * width, v, s=10, color=f"C{ci}", alpha=0.5,
+                       zorder=2, linewidths=0)
+            ax.plot([x0 - 0.4 * width, x0 + 0.4 * width], [np.median(v)] * 2, color=f"C{ci}", lw=3,
+                    zorder=3, label=c if gi == 0 or c not in ax.get_legend_handles_labels()[1] else None)
+    ax.set_yscale("log")
+    if allv:
+        cat = np.concatenate(allv)
+        lo = 10 ** math.floor(math.log10(min(cat.min(), band[0])))
+        hi = 10 ** math.ceil(math.log10(max(cat.max(), band[1])))
+        ax.set_ylim(lo, hi)
+    ax.set_xticks(np.arange(len(groups)), groups)
+    ax.set_xlim(-0.6, len(groups) - 0.4)
+    ax.set_ylabel("relative pseudo damage [%]")
+    ax.grid(axis="y", which="major", alpha=0.4)
+    ax.legend(fontsize=8, loc="upper left", bbox_to_anchor=(1.01, 1.0), frameon=False,
+              title="bar: median; dots: sensors x signals", title_fontsize=7)
+    if title:
+        ax.set_title(title, fontsize=10)
+    fig.tight_layout()
     path = Path(path)
     fmt = path.suffix.lstrip(".").lower() or "png"
     directory = path.parent if str(path.parent) else Path(".")

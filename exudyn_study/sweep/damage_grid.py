@@ -31,14 +31,29 @@ written recording is at the controller's 204.8 Hz as in every simulated recordin
 Damping choices
 ---------------
 ``'adams-default'``, ``'step'`` (16.6 % to 100 % at 450 Hz), ``'constant-1'``,
-``'constant-2'``, ``'table6'`` (thesis Table 6, Model 3) and ``'suggested'``:
+``'constant-2'``, ``'table6'`` (thesis Table 6, Model 3), ``'suggested'`` and ``'diagnosed'``
+(:mod:`exudyn_study.sweep.grid_damping`):
 
-- Model 3: thesis Table 6, unless a calibration file is given;
-- Models 1/2: the thesis's suggested function (Figure 18) was chosen by hand so that the
-  system modes carry the identified damping of Table 1; we use the calibration
-  (:mod:`exudyn_study.calibrate`) that does this automatically: a calibration file
-  (``exudyn-study calibrate --json``) when given, otherwise a calibration against thesis
-  Table 1 run here (one variable per body mode below 500 Hz, 100 % above; ~2 s).
+- ``'suggested'``: the thesis's question. The model's flexible-body damping is calibrated
+  (:func:`~exudyn_study.sweep.grid_damping.calibrate_model`) so that its system modes carry the
+  damping of the rig's EMA: the white-noise recording identified with each reference
+  (:func:`~exudyn_study.sweep.grid_damping.ema_target`), model and rig modes paired by MAC at
+  the sensors and frequency. Models 1/2: one ratio per chassis mode below 500 Hz; Model 3: one
+  per body. A calibration file per model replaces it (``calibrations``).
+- ``'diagnosed'``: the model a rig diagnosis fitted (``diagnosis``: its findings applied,
+  :func:`exudyn_study.diagnose.fitted.apply_diagnosis`, but for ``modal_damping`` findings:
+  the body damping is calibrated), calibrated the same way; only for the model variant the
+  diagnosis was made on.
+
+Every calibration's pairing (MAC, frequency error, unpaired rig modes) is kept in
+:attr:`GridResult.calibrations` and written next to the grid.
+
+Reading
+-------
+:meth:`GridResult.reading` says per sensor group (:func:`sensor_group`: frame and cross
+members, tanks, brackets, rear attachments) which damping predicts the measured damage best,
+as the median over the group's sensors and the signals of the factor by which the simulation
+misses (``exp |log ratio|``), and where no damping brings the group within 50-200 %.
 
 Cells run one after another: the machine's cores are better spent on the linear algebra,
 and every cell is a few seconds.
@@ -47,6 +62,7 @@ and every cell is a few seconds.
 from __future__ import annotations
 
 import csv
+import json
 import logging
 import math
 import os
@@ -54,21 +70,34 @@ import re
 import tempfile
 import time
 from collections.abc import Callable, Mapping, Sequence
-from dataclasses import dataclass
+from dataclasses import dataclass, field, replace
 from pathlib import Path
 
 import numpy as np
 
 from exudyn_study.errors import InputError
+from exudyn_study.identify.model import write_modes_json
+from exudyn_study.infra.atomic import write_text_atomic
 from exudyn_study.infra.blas import single_threaded_blas
 from exudyn_study.recording.io import read_recording
 from exudyn_study.recording.types import Recording
 from exudyn_study.signals.fatigue import DEFAULT_BETA, RelativeDamage, relative_pseudo_damage
-from exudyn_study.sweep.grid_damping import DAMPING_NAMES, resolve_damping
+from exudyn_study.sweep.grid_damping import (
+    CALIBRATED,
+    DAMPING_NAMES,
+    calibrate_model,
+    calibration_dict,
+    damping_from_calibration,
+    ema_target,
+    resolve_damping,
+    table1_target,
+)
 from exudyn_study.sweep.plant import CONTROL, ModelPlant, iterate_model_drive
 
 __all__ = [
     "GRID_DAMPINGS",
+    "SENSOR_GROUPS",
+    "sensor_group",
     "GRID_SIGNALS",
     "DAMAGE_RATE_HZ",
     "CellResult",
@@ -81,20 +110,45 @@ log = logging.getLogger(__name__)
 
 #: damping functions of the grid (thesis Section 6: the two references and the suggested one)
 GRID_DAMPINGS = ("adams-default", "step", "suggested")
+#: sensor groups of the grid's reading, in the order they are reported
+SENSOR_GROUPS = ("frame and cross members", "tanks", "brackets", "rear attachments")
+#: the acceptance band of relative pseudo damage (ratios)
+BAND = (0.5, 2.0)
 #: drive signals of the grid (thesis Section 7)
 GRID_SIGNALS = ("white-noise", "test", "test-50")
 #: rate in Hz at which pseudo damage is counted (the thesis's simulation rate, Section 7.2)
 DAMAGE_RATE_HZ = 204.8
 
 
-# ---------------------------------------------------------------------------------------
-# The model as a plant of the drive iteration
-# ---------------------------------------------------------------------------------------
+
+def sensor_group(name: str) -> str:
+    """Return the sensor group of a thesis sensor (one of :data:`SENSOR_GROUPS`).
+
+    Tanks and brackets are the sensors on those components; the rear attachments are the
+    frame's sensors at its rear supports (ARVBZ, ARHBZ); every other frame sensor (side
+    members, cross members, the tank and bracket mounts on the frame) is "frame and cross
+    members". A name not in thesis Appendix A counts as frame.
+    """
+    from exudyn_study.model.sensors import sensor
+
+    try:
+        s = sensor(name)
+    except InputError:
+        return SENSOR_GROUPS[0]
+    if s.component.startswith("tank"):
+        return "tanks"
+    if s.component.startswith("bracket"):
+        return "brackets"
+    if s.description.lower().startswith("rear attachment"):
+        return "rear attachments"
+    return SENSOR_GROUPS[0]
 
 
-# ---------------------------------------------------------------------------------------
-# Damping choices
-# ---------------------------------------------------------------------------------------
+def _miss(ratio) -> np.ndarray:
+    """Factor by which a simulation misses the measured damage: ``exp |log ratio|`` (1 = exact)."""
+    r = np.asarray(ratio, dtype=float)
+    with np.errstate(divide="ignore", invalid="ignore"):
+        return np.exp(np.abs(np.log(r)))
 
 
 # ---------------------------------------------------------------------------------------
@@ -156,7 +210,12 @@ class GridResult:
     wall_time_s : float
         Wall time of :func:`run_grid`, model builds included.
     files : tuple of Path
-        Files written (CSV, plots).
+        Files written (CSV, plots, calibrations, reading).
+    calibrations : mapping (model, damping) -> dict
+        Each calibrated column's calibration (:meth:`CalibrationResult.to_dict`: the pairing
+        with MAC and frequencies, the unpaired target modes, the chosen ratios).
+    notes : tuple of str
+        What the grid could not run and why (e.g. the diagnosed column on another model).
     """
 
     cells: tuple[CellResult, ...]
@@ -165,6 +224,8 @@ class GridResult:
     rate_hz: float
     wall_time_s: float
     files: tuple[Path, ...] = ()
+    calibrations: Mapping = field(default_factory=dict)
+    notes: tuple[str, ...] = ()
 
     def cell(self, model: int, damping: str, signal: str) -> CellResult:
         """Return the cell of (model, damping, signal).
@@ -225,6 +286,102 @@ class GridResult:
                 f"{np.median(r):9.1f} {r.min():8.1f} {r.max():9.1f} {inside:>11} {c.wall_s:6.1f}")
         return "\n".join(lines)
 
+    def group_ratios(self, model: int) -> dict[str, dict[str, np.ndarray]]:
+        """Relative damage of one model by sensor group and damping, over the group's sensors and the signals.
+
+        Returns
+        -------
+        dict group -> dict damping -> ndarray of ratios (1 = measured)
+        """
+        out: dict[str, dict[str, list]] = {}
+        for c in self.cells:
+            if c.model != model:
+                continue
+            for ch in c.damage.channels:
+                out.setdefault(sensor_group(ch.name), {}).setdefault(c.damping, []).append(ch.ratio)
+        order = [g for g in SENSOR_GROUPS if g in out]
+        return {g: {d: np.asarray(v, float) for d, v in out[g].items()} for g in order}
+
+    def median_ratio(self, model: int, damping: str, signal: str | None = None) -> float:
+        """Return the median relative damage (ratio) of a column over its sensors (and signals, if None)."""
+        r = [c.damage.ratios for c in self.cells
+             if c.model == model and c.damping == damping and (signal is None or c.signal == signal)]
+        if not r:
+            raise InputError(f"no cell model {model}, damping {damping!r}"
+                             + ("" if signal is None else f", signal {signal!r}") + " in the grid")
+        r = np.concatenate(r)
+        r = r[np.isfinite(r)]
+        return float(np.median(r)) if r.size else math.nan
+
+    def reading(self) -> str:
+        """Read the grid per model and sensor group: which damping predicts the measured damage best.
+
+        For each model and sensor group the dampings are ranked by the median over the
+        group's sensors and signals of the miss factor ``exp |log(D_sim / D_meas)|`` (1: the
+        simulation's damage equals the measured one; 2: off by a factor of two either way);
+        the text gives each column's median relative damage, the best one and by how much it
+        beats the next, the sensors within 50-200 %, and says where no damping brings the
+        group within 50-200 %.
+        """
+        lines = []
+        dampings = list(dict.fromkeys(c.damping for c in self.cells))
+        for m in dict.fromkeys(c.model for c in self.cells):
+            cols = [d for d in dampings if any(c.model == m and c.damping == d for c in self.cells)]
+            lines.append(f"Model {m} (median relative damage over all sensors and signals: "
+                         + ", ".join(f"{d} {100 * self.median_ratio(m, d):.0f} %" for d in cols) + ")")
+            for g, per in self.group_ratios(m).items():
+                miss = {d: float(np.nanmedian(_miss(v))) for d, v in per.items()}
+                ranked = sorted(miss, key=miss.get)
+                best = ranked[0]
+                med = {d: 100 * float(np.nanmedian(v)) for d, v in per.items()}
+                inside = {d: int(np.sum((v >= BAND[0]) & (v <= BAND[1]))) for d, v in per.items()}
+                n = len(per[best])
+                text = (f"  {g}: best {best} (median {med[best]:.0f} %, off by x{miss[best]:.2f}, "
+                        f"{inside[best]}/{n} sensor-signals within 50-200 %)")
+                if len(ranked) > 1:
+                    nxt = ranked[1]
+                    text += (f"; next {nxt} ({med[nxt]:.0f} %, x{miss[nxt]:.2f}): "
+                             f"{miss[nxt] / miss[best]:.2f} times further off")
+                others = ", ".join(f"{d} {med[d]:.0f} %" for d in ranked[2:])
+                if others:
+                    text += f"; then {others}"
+                lines.append(text)
+                if not any(BAND[0] <= med[d] / 100 <= BAND[1] for d in per):
+                    if "diagnosed" in per:
+                        hint = ("the diagnosed model does not reach it either: what is missing there is not "
+                                "yet modelled (see the diagnosis's unexplained mismatch)")
+                    else:
+                        hint = ("no damping reaches it: the model lacks physics the rig has there; run the "
+                                "diagnosis (exudyn-study diagnose) and add its column (diagnosis=...)")
+                    lines.append(f"    no column within 50-200 % for the {g}: {hint}")
+        lines.extend(self.notes)
+        return "\n".join(lines)
+
+    def pairing_report(self) -> str:
+        """Per calibrated column the pairing of model and target modes (MAC, frequency error, unpaired)."""
+        lines = []
+        for (m, d), cal in self.calibrations.items():
+            meta = cal.get("metadata", {})
+            conv = cal.get("convergence", {})
+            lines.append(f"Model {m}, {d}: calibrated on {meta.get('target', 'target')}, "
+                         f"{len(cal.get('variables', {}))} variables, max |damping error| "
+                         f"{100 * (conv.get('max_abs_error') or math.nan):.3f} pp")
+            lines.append(f"  {'f model Hz':>10} {'zeta %':>7} {'f target Hz':>11} {'target %':>8} "
+                         f"{'df %':>6} {'MAC':>5}")
+            for r in cal.get("modes", []):
+                if r["target_frequency_hz"] is None:
+                    continue
+                df = 100 * (r["frequency_hz"] / r["target_frequency_hz"] - 1)
+                mac_ = "-" if r["mac"] is None else f"{r['mac']:.2f}"
+                lines.append(f"  {r['frequency_hz']:10.2f} {100 * r['damping_ratio']:7.2f} "
+                             f"{r['target_frequency_hz']:11.2f} {100 * r['target_damping_ratio']:8.2f} "
+                             f"{df:6.1f} {mac_:>5}")
+            un = cal.get("unpaired_targets", [])
+            lines.append("  target modes without a partner: " + (", ".join(
+                f"{u['target_frequency_hz']:.2f} Hz ({100 * u['target_damping_ratio']:.2f} %)" for u in un)
+                if un else "none"))
+        return "\n".join(lines)
+
     def write_csv(self, path: str | os.PathLike, iterations: bool = False) -> Path:
         """Write :meth:`rows` (or :meth:`iteration_rows`) to a CSV file atomically."""
         rows = self.iteration_rows() if iterations else self.rows()
@@ -249,9 +406,10 @@ class GridResult:
         Per model and signal the dampings side by side (``model<m>_<signal>_dampings.png``,
         Figs 22-24 for white noise), and per model and damping the signals side by side
         (``model<m>_<damping>_signals.png``, Figs 25-27 for the suggested damping), where
-        there is more than one case to compare.
+        there is more than one case to compare; per model a summary by sensor group and
+        damping (``model<m>_summary.png``).
         """
-        from exudyn_study.signals.fatigue_plots import plot_relative_pseudo_damage
+        from exudyn_study.signals.fatigue_plots import plot_damage_summary, plot_relative_pseudo_damage
 
         out = Path(out_dir)
         written = []
@@ -271,6 +429,10 @@ class GridResult:
                     written.append(plot_relative_pseudo_damage(
                         cases, out / f"model{m}_{_slug(d)}_signals.png",
                         title=f"Model {m}, {d} damping: relative pseudo damage by signal"))
+            written.append(plot_damage_summary(
+                self.group_ratios(m), out / f"model{m}_summary.png",
+                title=f"Model {m}: relative pseudo damage by sensor group and damping\n"
+                      f"(signals: {', '.join(signals)})"))
         return written
 
 
@@ -343,7 +505,7 @@ def _check_positive(name: str, value) -> float:
 def run_grid(
     measured: Mapping[str, Recording | str | os.PathLike],
     models: Sequence[int] = (1, 2, 3),
-    dampings: Sequence[str] = GRID_DAMPINGS,
+    dampings: Sequence[str] | None = None,
     signals: Sequence[str] | None = None,
     iterate: bool = True,
     out_dir: str | os.PathLike | None = None,
@@ -356,7 +518,10 @@ def run_grid(
     tol: float = 0.05,
     reg: float = 0.05,
     calibrations: Mapping[int, str | os.PathLike | Mapping] | None = None,
+    target=None,
+    diagnosis=None,
     builder: Callable[[int, object], object] | None = None,
+    probe_builder: Callable[[int, object], object] | None = None,
     mesh_size="production",
     cache_dir=None,
     plots: bool = True,
@@ -370,8 +535,9 @@ def run_grid(
         The measured recording of each drive signal (e.g. from :func:`measured_recordings`).
     models : sequence of int
         Model variants (default 1, 2, 3).
-    dampings : sequence of str
-        Damping names (:data:`DAMPING_NAMES`; default adams-default, step, suggested).
+    dampings : sequence of str, optional
+        Damping names (:data:`DAMPING_NAMES`; default adams-default, step, suggested, and
+        diagnosed when a ``diagnosis`` is given).
     signals : sequence of str, optional
         Signals to run (default: every key of ``measured``).
     iterate : bool
@@ -392,11 +558,22 @@ def run_grid(
         Drive iteration: at most ``max_iter`` updates, stop below ``tol`` relative rms
         error, relative Tikhonov regularisation.
     calibrations : mapping model -> calibration, optional
-        Calibration file or dict per model for ``'suggested'`` (see :func:`resolve_damping`).
+        Calibration file or dict per model for ``'suggested'`` (see :func:`resolve_damping`);
+        without one the model is calibrated against ``target``.
+    target : ModalModel, optional
+        Target modes of the calibrated columns. Default: the EMA of the measured white-noise
+        recording (:func:`~exudyn_study.sweep.grid_damping.ema_target`); without a white-noise
+        recording, thesis Table 1 (frequencies only).
+    diagnosis : Diagnosis, mapping or path, optional
+        A rig diagnosis (``exudyn-study diagnose --json``) whose fitted model is the
+        ``'diagnosed'`` column (on the model variant it was made on).
     builder : callable, optional
         ``builder(variant, damping) -> Model`` (not assembled); default
         :func:`exudyn_study.model.build_model` with ``mesh_size``, ``cache_dir`` and the
         used-node Exudyn mesh. Models are built once per (model, damping).
+    probe_builder : callable, optional
+        The same with the whole Exudyn mesh, for the calibration (default: ``builder`` when
+        one is given, else ``build_model`` with the whole mesh).
     plots : bool
         Write bar plots into ``out_dir`` (default True).
     progress : callable, optional
@@ -411,18 +588,21 @@ def run_grid(
     InputError
         Before any model is built: an unknown model, damping or signal, a measured
         recording that is missing, unreadable, has non-finite data or lacks a control
-        channel, ``beta <= 0``, a missing output directory. Later: a compared channel
+        channel, ``beta <= 0``, a missing output directory, ``'diagnosed'`` without a
+        diagnosis or a diagnosis without the entries of its fitted model. Later: a compared channel
         missing from a measured recording, a calibration for another mesh.
     """
     with single_threaded_blas():
         return _run_grid(measured, models, dampings, signals, iterate, out_dir, control=control,
                          channels=channels, beta=beta, rate_hz=rate_hz, max_iter=max_iter, tol=tol, reg=reg,
-                         calibrations=calibrations, builder=builder, mesh_size=mesh_size, cache_dir=cache_dir,
+                         calibrations=calibrations, target=target, diagnosis=diagnosis, builder=builder,
+                         probe_builder=probe_builder, mesh_size=mesh_size, cache_dir=cache_dir,
                          plots=plots, progress=progress)
 
 
 def _run_grid(measured, models, dampings, signals, iterate, out_dir, *, control, channels, beta, rate_hz,
-              max_iter, tol, reg, calibrations, builder, mesh_size, cache_dir, plots, progress) -> GridResult:
+              max_iter, tol, reg, calibrations, target, diagnosis, builder, probe_builder, mesh_size,
+              cache_dir, plots, progress) -> GridResult:
     from exudyn_study.model import VARIANTS
 
     t_start = time.perf_counter()
@@ -437,6 +617,16 @@ def _run_grid(measured, models, dampings, signals, iterate, out_dir, *, control,
     bad = [m for m in models if m not in VARIANTS]
     if bad:
         raise InputError(f"model {bad[0]!r} is unknown; expected one of {list(VARIANTS)}")
+    from exudyn_study.diagnose.fitted import apply_diagnosis, diagnosis_variant, load_diagnosis
+
+    diagnosed_variant = None
+    if diagnosis is not None:
+        diagnosis = load_diagnosis(diagnosis)
+        diagnosed_variant = diagnosis_variant(diagnosis)
+    dampings = list(GRID_DAMPINGS + (("diagnosed",) if diagnosis is not None else ())
+                    if dampings is None else dampings)
+    if "diagnosed" in dampings and diagnosis is None:
+        raise InputError("damping 'diagnosed' needs a diagnosis (exudyn-study diagnose --json FILE)")
     for d in dampings:
         if d not in DAMPING_NAMES:
             raise InputError(f"damping {d!r} is unknown; expected one of {list(DAMPING_NAMES)}")
@@ -472,7 +662,6 @@ def _run_grid(measured, models, dampings, signals, iterate, out_dir, *, control,
                 raise InputError(f"{where}: {exc} (needed with iterate=False)") from None
         recs[s] = rec
 
-    probe_builder = builder
     if builder is None:
         from exudyn_study.model import build_model
 
@@ -480,24 +669,59 @@ def _run_grid(measured, models, dampings, signals, iterate, out_dir, *, control,
             return build_model(variant, damping=damping, mesh_size=mesh_size, cache_dir=cache_dir,
                                exudyn_mesh="used")
 
-        def probe_builder(variant, damping):  # the calibration reads sensors at every mesh node
-            return build_model(variant, damping=damping, mesh_size=mesh_size, cache_dir=cache_dir)
+        if probe_builder is None:
+            def probe_builder(variant, damping):  # the calibration reads sensors at every mesh node
+                return build_model(variant, damping=damping, mesh_size=mesh_size, cache_dir=cache_dir)
+    probe_builder = probe_builder or builder
+
+    notes: list[str] = []
+    need_target = "diagnosed" in dampings or any(
+        d in CALIBRATED and variant not in calibrations for d in dampings for variant in models)
+    if target is None and need_target:
+        if "white-noise" in recs:
+            t0 = time.perf_counter()
+            target = ema_target(recs["white-noise"])
+            say(f"EMA of the white-noise recording: {len(target)} modes "
+                f"({', '.join(f'{f:.1f}' for f in target.frequency_hz)} Hz) "
+                f"in {time.perf_counter() - t0:.1f} s")
+        else:
+            target = table1_target()
+            notes.append("no white-noise recording: the calibrated columns are calibrated on thesis Table 1 "
+                         "(frequencies only, no shapes)")
+            say(notes[-1])
+
+    def fitted(model):  # the body damping is calibrated: a modal_damping finding would scale it again
+        return apply_diagnosis(model, diagnosis, exclude=("modal_damping",))
 
     plants: dict[tuple[int, str], ModelPlant] = {}
+    cal_results: dict[tuple[int, str], dict] = {}
 
     def plant_for(variant: int, name: str) -> ModelPlant:
         key = (variant, name)
         if key not in plants:
             t0 = time.perf_counter()
-            spec = resolve_damping(variant, name, calibrations.get(variant),
-                                   probe=lambda: probe_builder(variant, "adams-default"))
-            plants[key] = ModelPlant(builder(variant, spec), label=name)
+            diagnosed = name == "diagnosed"
+            if diagnosed or (name in CALIBRATED and variant not in calibrations):
+                probe = probe_builder(variant, "adams-default")
+                if diagnosed:
+                    probe = fitted(probe)
+                cal = calibration_dict(calibrate_model(probe, target), probe, target)
+                cal_results[key] = cal
+                spec = damping_from_calibration(cal)
+            else:
+                spec = resolve_damping(variant, name, calibrations.get(variant))
+            model = builder(variant, spec)
+            plants[key] = ModelPlant(fitted(model) if diagnosed else model, label=name)
             say(f"model {variant}, damping {name}: built and linearised in {time.perf_counter() - t0:.1f} s")
         return plants[key]
 
     cells = []
     for variant in models:
         for name in dampings:
+            if name == "diagnosed" and diagnosed_variant not in (None, variant):
+                notes.append(f"model {variant}: no diagnosed column (the diagnosis was made on model "
+                             f"{diagnosed_variant})")
+                continue
             plant = plant_for(variant, name)
             names = list(channels) if channels is not None else [
                 n for n in plant.sensor_names if plant.model.sensors[n].sensor.direction == "Z"]
@@ -529,12 +753,21 @@ def _run_grid(measured, models, dampings, signals, iterate, out_dir, *, control,
                     + (f"{errors.shape[0]} runs, control error {100 * cell.final_error:.1f} %, "
                        if errors is not None else "measured drive, ")
                     + f"relative damage median {np.nanmedian(r):.0f} % ({cell.wall_s:.1f} s)")
-    result = GridResult(tuple(cells), control, beta, rate_hz, time.perf_counter() - t_start)
+    result = GridResult(tuple(cells), control, beta, rate_hz, time.perf_counter() - t_start,
+                        calibrations=dict(cal_results), notes=tuple(dict.fromkeys(notes)))
     if out is not None:
         files = [result.write_csv(out / "damage_grid.csv")]
         if iterate:
             files.append(result.write_csv(out / "drive_iterations.csv", iterations=True))
+        for (m, d), cal in cal_results.items():
+            files.append(write_text_atomic(out / f"calibration_model{m}_{_slug(d)}.json",
+                                           json.dumps(cal, indent=1), "calibration JSON"))
+        if target is not None and need_target:
+            files.append(write_modes_json(target, out / "calibration_target_modes.json"))
+        if cal_results:
+            files.append(write_text_atomic(out / "pairing.txt", result.pairing_report() + "\n", "pairing"))
+        files.append(write_text_atomic(out / "reading.txt", result.reading() + "\n", "grid reading"))
         if plots:
             files.extend(result.plot(out))
-        result = GridResult(result.cells, control, beta, rate_hz, time.perf_counter() - t_start, tuple(files))
+        result = replace(result, wall_time_s=time.perf_counter() - t_start, files=tuple(files))
     return result
