@@ -43,7 +43,7 @@ def test_help_shows_the_defaults(command, capsys):
     expected = {"simulate": ["(default: exudyn)", "(default: 80.0)", "(default: 0)"],
                 "modes": ["(default: 100.0)", "(default: production)"],
                 "demo": ["(default: demo_out)", "(default: 1)"],
-                "identify": ["(default: 0.2)", "(default: Hv)", "(default: 60)"],
+                "identify": ["chosen from the record length", "(default: Hv)", "(default: 60)"],
                 "calibrate": ["(default: 500.0)", "(default: adams-default)"]}[command]
     for item in expected:
         assert item in text, (command, item)
