@@ -395,7 +395,8 @@ def test_cli_bad_numbers(tmp_path, capsys):
     assert "--above-percent 120: out of range; expected >= 0 and <= 100 %" in capsys.readouterr().err
     blocker = tmp_path / "a_file"
     blocker.write_text("x")
-    assert main(["calibrate", "--model", "2", "--target", str(target), "--json", str(blocker / "o.json")]) == 2
+    argv = ["calibrate", "--model", "2", "--target", str(target), "--json", str(blocker / "o.json")]
+    assert main(argv) == 2
     assert "is a file, not a directory" in capsys.readouterr().err
     assert main(["calibrate", "--model", "2", "--target", str(target), "--json", str(target)]) == 2
     assert "is the input --target" in capsys.readouterr().err

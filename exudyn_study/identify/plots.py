@@ -308,7 +308,8 @@ def plot_mode_shapes(model, positions_m: Mapping[str, Sequence[float]],
         ax.set_ylim(lo[1], hi[1])
         ax.set_zlim(lo[2], hi[2])
         ax.set_box_aspect(hi - lo, zoom=1.25)
-    fig.suptitle(f"Mode shapes at the sensors: grey undeformed, blue deformed, red the sensors (largest motion {scale:g} x "
+    fig.suptitle("Mode shapes at the sensors: grey undeformed, blue deformed, red the sensors "
+                 f"(largest motion {scale:g} x "
                  f"the {size:.2f} m layout, the same scale in every panel)", fontsize=10)
     fig.tight_layout(rect=(0.0, 0.0, 1.0, 0.97))
     return _save(fig, path)

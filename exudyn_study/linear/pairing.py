@@ -143,7 +143,8 @@ class ModePair:
 
 
 def pair_modal_models(model_modes: ModalModel, reference: ModalModel, min_mac: float = 0.5,
-                      max_frequency_error: float = 0.3, channels: Sequence[str] | None = None) -> list[ModePair]:
+                      max_frequency_error: float = 0.3,
+                      channels: Sequence[str] | None = None) -> list[ModePair]:
     """Pair the modes of two modal models (:func:`pair_modes` on their common channels).
 
     Parameters
