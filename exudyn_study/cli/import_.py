@@ -27,7 +27,15 @@ MAX_CSV_BYTES = 2 * 1024**3
 
 
 def configure(parser: argparse.ArgumentParser) -> None:
-    """Add the ``import`` arguments to ``parser``."""
+    """Add the ``import`` arguments to ``parser``.
+
+    Parameters
+    ----------
+    parser : argparse.ArgumentParser
+        The ``import`` subcommand's parser; gets ``FILE``, ``--column`` (repeated, required),
+        ``--rate``, ``--time-column``, ``--position`` (repeated), ``--delimiter`` and ``--out``
+        (required).
+    """
     parser.add_argument("file", metavar="FILE", help="delimited time data (.csv, .tsv, .txt)")
     parser.add_argument(
         "--column",
@@ -65,7 +73,33 @@ def _positions(items) -> dict[str, tuple[float, float, float]]:
 
 
 def run(args: argparse.Namespace) -> int:
-    """Read the file through the column map and write the recording; returns 0."""
+    """Read the file through the column map and write the recording; returns 0.
+
+    The output is declared and checked before the file is read and written staged, so a
+    refused input leaves nothing behind.
+
+    Parameters
+    ----------
+    args : argparse.Namespace
+        The parsed arguments of :func:`configure`: ``file``, ``column`` (list of
+        ``NAME=COLUMN:QUANTITY:UNIT[:DIRECTION[:ROLE]]``), ``rate`` (Hz or None),
+        ``time_column`` (header name, 0-based index or None), ``position`` (list of
+        ``NAME=X,Y,Z`` in m), ``delimiter`` (or None) and ``out`` (``.h5``/``.hdf5`` or
+        ``.uff``/``.unv``).
+
+    Returns
+    -------
+    int
+        0, the exit code.
+
+    Raises
+    ------
+    InputError
+        An output suffix that is not a recording's, a rate outside (0, 1e7] Hz, a missing,
+        empty or too large input file, a malformed ``--column`` or ``--position``, a position
+        for a channel not in the map, an output that cannot be written, or any refusal of
+        :func:`~exudyn_study.recording.csv.read_csv`.
+    """
     from exudyn_study.infra.files import OutputSet, check_input_file
     from exudyn_study.recording.csv import parse_column, read_csv
     from exudyn_study.recording.io import write_recording

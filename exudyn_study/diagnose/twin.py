@@ -207,6 +207,27 @@ def truth_modes(tw: Twin, delta: np.ndarray, law, period: int) -> tuple[np.ndarr
     lines within +-3 half-power bandwidths of the mode (the window follows the mode as it moves)
     gives the element's equivalent complex stiffness at that mode, which replaces the element in the
     linear structure's eigenproblem.
+
+    Parameters
+    ----------
+    tw : Twin
+        The twin structure that was simulated.
+    delta : ndarray, shape (n_samples,)
+        The simulated joint motion, displacement of ``B`` relative to ``A`` in m, over the whole
+        record (whole periods of the multisine).
+    law : JenkinsFriction or CubicStiffening
+        The joint's nonlinear element (:mod:`exudyn_study.linear.nonlinear`), whose force beyond
+        the stuck spring is replayed on ``delta`` from its state at rest.
+    period : int
+        Samples per period of the multisine.
+
+    Returns
+    -------
+    frequency_hz : ndarray, shape (n_masses,)
+        Undamped natural frequency of every mode in Hz, in the order of the linear modes
+        (ascending).
+    damping_ratio : ndarray, shape (n_masses,)
+        Damping ratio of every mode (-).
     """
     n_per = delta.size // period
     d = delta[period : n_per * period]

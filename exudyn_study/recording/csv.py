@@ -104,10 +104,22 @@ def parse_column(text: str) -> CsvColumn:
     ``COLUMN`` is a header name or a 0-based index; e.g. ``force=Fz:force:N:Z:drive`` or
     ``DP=2:acceleration:g``.
 
+    Parameters
+    ----------
+    text : str
+        One ``--column`` value. ``DIRECTION`` defaults to 'Z' and ``ROLE`` to 'response'; a
+        ``COLUMN`` of digits only is a 0-based index, anything else a header name.
+
+    Returns
+    -------
+    CsvColumn
+        The column map entry, without a position (``position_m`` None).
+
     Raises
     ------
     InputError
-        On a malformed entry (the message shows the expected form).
+        On a malformed entry (the message shows the expected form), or a quantity, unit,
+        direction or role that :class:`CsvColumn` does not accept.
     """
     form = "NAME=COLUMN:QUANTITY:UNIT[:DIRECTION[:ROLE]], e.g. force=Fz:force:N:Z:drive"
     name, eq, rest = text.partition("=")

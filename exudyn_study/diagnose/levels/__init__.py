@@ -344,6 +344,21 @@ def write_level_figures(state: dict, directory: str | Path) -> list[Path]:
     """Write the amplitude plot and the FRF overlays of a :func:`diagnose_levels` run into a directory.
 
     ``state`` is the dict that run filled; returns the written PNG paths.
+
+    Parameters
+    ----------
+    state : dict
+        The ``state`` filled by :func:`diagnose_levels` (or :func:`diagnose_level_frfs`): the
+        FRFs, reference model, modal table, trends, located pair, labels, train and holdout
+        indices, and, when a joint law was fitted, the law and its proof.
+    directory : str or path-like
+        Directory for the figures, created (with its parents) if missing.
+
+    Returns
+    -------
+    list of Path
+        ``modal_vs_amplitude.png``, and ``frf_overlays.png`` when a joint law was fitted (the
+        located pair's sensors, else every channel, around the law's modes).
     """
     d = Path(directory)
     d.mkdir(parents=True, exist_ok=True)
@@ -387,6 +402,11 @@ def write_level_report(diagnosis: Diagnosis, state: dict, directory: str | Path)
     -------
     Path
         The written ``index.html``.
+
+    Raises
+    ------
+    InputError
+        If the parent of ``directory`` does not exist.
     """
     import html
 

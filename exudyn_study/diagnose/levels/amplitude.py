@@ -79,7 +79,27 @@ class ModalTable:
 
 
 def mode_amplitude(residue: complex, pole: complex, freq_hz: np.ndarray, u: np.ndarray) -> float:
-    """Rms response of one mode at one channel driven by line amplitudes ``u`` (see module docstring)."""
+    """Rms response of one mode at one channel driven by line amplitudes ``u`` (see module docstring).
+
+    ``sqrt(sum_k |R / (jw_k - p) + conj(R) / (jw_k - conj(p))|^2 |u_k|^2 / 2)``: computed from the
+    drive alone, so that it can be evaluated for a level that was not fitted.
+
+    Parameters
+    ----------
+    residue : complex
+        The mode's residue at the channel (FRF unit times rad/s).
+    pole : complex
+        The mode's pole in rad/s (upper half plane).
+    freq_hz : ndarray, shape (n_freq,)
+        Lines in Hz.
+    u : ndarray of complex, shape (n_freq,)
+        The drive's peak amplitude per line (drive unit, e.g. N), as ``LevelFRF.U``.
+
+    Returns
+    -------
+    float
+        Rms response of the mode at the channel, in the FRF's response unit (e.g. m/s^2).
+    """
     t = mode_term(np.array([residue]), pole, freq_hz)[0]
     return float(np.sqrt(0.5 * np.sum(np.abs(t * u) ** 2)))
 

@@ -27,7 +27,27 @@ _WORDS = {
 
 
 def explain_finding(physics: str, trends: list[ModeTrend], pair, proof: dict, holdout: list[str]) -> str:
-    """One paragraph: what changes with level, where, and how much the model improves on held-out levels."""
+    """One paragraph: what changes with level, where, and how much the model improves on held-out levels.
+
+    Parameters
+    ----------
+    physics : str
+        The dominant screened outcome (one of :data:`~.screen.NONLINEAR`); the modes with this
+        outcome are described with their frequency and damping changes.
+    trends : list of ModeTrend
+        Every mode's screened trend.
+    pair : (str, str) or None
+        The located sensor pair, or None when no pair's relative motion changed significantly.
+    proof : dict
+        Errors per level label, from :func:`~.fit.prove`.
+    holdout : list of str
+        Labels of the held-out levels whose error before and after is quoted.
+
+    Returns
+    -------
+    str
+        The paragraph.
+    """
     moving = [t for t in trends if t.outcome == physics]
     modes = "; ".join(
         f"mode {t.mode} at {t.frequency_hz:.4g} Hz: frequency {100 * t.frequency_change:+.2f} % "
@@ -52,7 +72,30 @@ def explain_finding(physics: str, trends: list[ModeTrend], pair, proof: dict, ho
 
 
 def diagnosis_without_law(trends: list[ModeTrend], channels, band, meta: dict) -> Diagnosis | None:
-    """Return the diagnosis when no joint law is fitted (no level dependence, or one channel), else None."""
+    """Return the diagnosis when no joint law is fitted (no level dependence, or one channel), else None.
+
+    Three diagnoses end here: a level dependence seen with a single response channel (reported as
+    unexplained: one channel holds no relative motion to locate or model it); modes that scatter
+    between levels without a trend (unexplained, not level dependent); nothing (no mismatch).
+
+    Parameters
+    ----------
+    trends : list of ModeTrend
+        Every mode's screened trend.
+    channels : sequence of str
+        The response channels (the location of an unexplained entry).
+    band : (float, float)
+        The analysis band in Hz.
+    meta : dict
+        The diagnosis metadata; its ``'summary'`` is set here, and it becomes the returned
+        diagnosis's metadata.
+
+    Returns
+    -------
+    Diagnosis or None
+        None when some mode is level dependent and there are at least two channels: the joint
+        law is to be located, fitted and proven.
+    """
     nonlin = [t for t in trends if t.outcome in NONLINEAR]
     if nonlin and len(channels) < 2:
         meta["summary"] = (
@@ -102,7 +145,44 @@ def diagnosis_without_law(trends: list[ModeTrend], channels, band, meta: dict) -
 def diagnosis_with_law(
     physics, trends, pair, law, proof, model, labels, train, holdout, band, meta
 ) -> Diagnosis:
-    """Return the finding with its proof, or an unexplained mismatch if the law misses held-out levels."""
+    """Return the finding with its proof, or an unexplained mismatch if the law misses held-out levels.
+
+    The law is taken as the explanation only when it lowers the mean relative FRF error of the
+    held-out levels below the reference model's; otherwise the level dependence is reported as
+    unexplained and the rejected fit kept in ``meta['fit_rejected']``. An accepted finding carries
+    flags for doubts: a pair that was not located, held-out levels the law does not improve,
+    degenerate modal masses, a reference model beyond the noise of its own recording.
+
+    Parameters
+    ----------
+    physics : str
+        The dominant screened outcome (one of :data:`~.screen.NONLINEAR`), the finding's physics.
+    trends : list of ModeTrend
+        Every mode's screened trend; the level-dependent modes give the finding's band.
+    pair : (str, str) or None
+        The located sensor pair, or None (the law was then fitted across the best-ranked pair,
+        ``law.pair``, and the finding is flagged as not located).
+    law : JointLaw
+        The fitted joint law; its parameters become the finding's.
+    proof : dict
+        Errors per level label, from :func:`~.fit.prove`.
+    model : ReferenceModel
+        The reference model, for its self-check and degenerate-mass flags.
+    labels : list of str
+        Labels of all levels, indexed by ``train`` and ``holdout``.
+    train, holdout : list of int
+        Indices into ``labels`` of the training and the held-out levels.
+    band : (float, float)
+        The analysis band in Hz (named in the error metric).
+    meta : dict
+        The diagnosis metadata; ``'joint_law'`` and ``'summary'`` (and ``'fit_rejected'``) are set
+        here, and it becomes the returned diagnosis's metadata.
+
+    Returns
+    -------
+    Diagnosis
+        With one finding, or with one unexplained level-dependent mismatch.
+    """
     ho_labels, tr_labels = [labels[i] for i in holdout], [labels[i] for i in train]
     fit = {
         "train_before": float(np.mean([proof[k]["mean_before"] for k in tr_labels])),
@@ -180,7 +260,26 @@ def diagnosis_with_law(
 
 
 def plot_amplitude(table, trends, path: Path) -> Path:
-    """Plot frequency and damping of each level-dependent mode (else all) against amplitude (1-sigma bars)."""
+    """Plot frequency and damping of each level-dependent mode (else all) against amplitude (1-sigma bars).
+
+    At most 6 modes, one column each: frequency (Hz) above, damping ratio (%) below, against
+    the mode's rms amplitude on a log axis.
+
+    Parameters
+    ----------
+    table : ModalTable
+        Modal parameters per level with their standard deviations and amplitudes.
+    trends : list of ModeTrend
+        One per mode of ``table`` in its order; modes whose outcome is not 'linear' are
+        plotted, or all modes when every one is linear.
+    path : path-like
+        Image file to write (the format from its suffix, e.g. ``.png``).
+
+    Returns
+    -------
+    path-like
+        ``path``.
+    """
     import matplotlib
 
     matplotlib.use("Agg")
@@ -221,7 +320,33 @@ def plot_amplitude(table, trends, path: Path) -> Path:
 def plot_overlays(
     proof: dict, labels: list[str], channels, show: list[str], unit: str, path: Path, band_hz=None
 ) -> Path:
-    """Measured, nominal (reference model) and fitted FRF magnitudes per level at the sensors ``show``."""
+    """Measured, nominal (reference model) and fitted FRF magnitudes per level at the sensors ``show``.
+
+    One row per level and one column per sensor, each titled with its relative FRF error before
+    and after.
+
+    Parameters
+    ----------
+    proof : dict
+        Errors and FRFs per level label, from :func:`~.fit.prove`.
+    labels : list of str
+        Levels to plot (keys of ``proof``), one row each.
+    channels : sequence of str
+        All response channels, in the order of the FRF arrays' first axis.
+    show : list of str
+        The channels to plot, one column each.
+    unit : str
+        The FRF unit for the axis label, e.g. ``'m/s^2/N'``.
+    path : path-like
+        Image file to write (the format from its suffix, e.g. ``.png``).
+    band_hz : (float, float), optional
+        Frequency axis limits in Hz (default: the lines of the data).
+
+    Returns
+    -------
+    path-like
+        ``path``.
+    """
     import matplotlib
 
     matplotlib.use("Agg")

@@ -90,6 +90,18 @@ def jenkins_df(x: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
     """In-phase and quadrature stiffness of a Jenkins element per unit spring stiffness.
 
     ``x = A / a_slip`` is the harmonic amplitude in slip amplitudes.
+
+    Parameters
+    ----------
+    x : array_like
+        Amplitudes of the harmonic relative motion over the slip amplitude (-), any shape; at
+        or below 1 the slider sticks.
+
+    Returns
+    -------
+    kc, kq : ndarray
+        In-phase (1 while stuck) and quadrature (0 while stuck) stiffness per unit spring
+        stiffness (-), the shape of ``x``.
     """
     x = np.asarray(x, float)
     kc = np.ones_like(x)
@@ -105,6 +117,17 @@ def jenkins_random(ratio: float) -> tuple[float, float]:
     """Average :func:`jenkins_df` over Rayleigh amplitudes of rms ``ratio`` (in slip amplitudes).
 
     Energy-weighted: the amplitudes that carry the response count most.
+
+    Parameters
+    ----------
+    ratio : float
+        Rms ``sigma`` of the narrow-band random relative motion over the slip amplitude
+        ``a_slip`` (-); the amplitudes are Rayleigh distributed with that scale.
+
+    Returns
+    -------
+    kc, kq : float
+        Averaged in-phase and quadrature stiffness per unit spring stiffness (-).
     """
     kc, kq = jenkins_df(_X * ratio)
     return float(np.trapezoid(kc * _W, _X)), float(np.trapezoid(kq * _W, _X))
@@ -146,14 +169,41 @@ class JointLaw:
     parameters: dict
 
     def d(self, sigma: float) -> np.ndarray:
-        """Equivalent stiffness change per unit coupling of each mode at relative displacement ``sigma``."""
+        """Equivalent stiffness change per unit coupling of each mode at relative displacement ``sigma``.
+
+        Parameters
+        ----------
+        sigma : float
+            Rms relative displacement of the law's sensor pair in m.
+
+        Returns
+        -------
+        ndarray of complex, shape (n_law_modes,)
+            ``D`` per mode of the law (-): ``(k_c - 1) + j k_q`` of :func:`jenkins_random` at
+            ``sigma / a_slip`` for 'jenkins', ``(sigma / sigma_ref)^p`` (real) for 'power'.
+        """
         if self.kind == "jenkins":
             out = np.array([jenkins_random(sigma / a) for a in np.atleast_1d(self.shape["a_slip"])])
             return (out[:, 0] - 1.0) + 1j * out[:, 1]
         return (sigma / self.shape["sigma_ref"]) ** np.atleast_1d(self.shape["p"]) + 0j
 
     def modal(self, sigma: float) -> tuple[np.ndarray, np.ndarray]:
-        """(frequency in Hz, damping ratio) of the law's modes at ``sigma``."""
+        """(frequency in Hz, damping ratio) of the law's modes at ``sigma``.
+
+        ``Omega_r^2 = w0_r^2 (1 + 2 j zeta0_r) + c_r Re D + j d_r Im D`` (module docstring).
+
+        Parameters
+        ----------
+        sigma : float
+            Rms relative displacement of the law's sensor pair in m.
+
+        Returns
+        -------
+        frequency_hz : ndarray, shape (n_law_modes,)
+            Undamped natural frequency of each of the law's modes in Hz.
+        damping_ratio : ndarray, shape (n_law_modes,)
+            Damping ratio of each of the law's modes (-).
+        """
         w0 = 2 * np.pi * self.f0_hz
         dd = self.d(sigma)
         om2 = w0**2 * (1 + 2j * self.zeta0) + self.coupling * dd.real + 1j * self.dissipation * dd.imag
@@ -161,7 +211,19 @@ class JointLaw:
         return np.sqrt(w2) / (2 * np.pi), om2.imag / (2 * w2)
 
     def poles(self, sigma: float) -> np.ndarray:
-        """Poles (rad/s) of the law's modes at ``sigma``."""
+        """Poles (rad/s) of the law's modes at ``sigma``.
+
+        Parameters
+        ----------
+        sigma : float
+            Rms relative displacement of the law's sensor pair in m.
+
+        Returns
+        -------
+        ndarray of complex, shape (n_law_modes,)
+            Poles in rad/s (upper half plane) of the modes in ``modes``, in that order, from
+            :meth:`modal`.
+        """
         f, z = self.modal(sigma)
         w = 2 * np.pi * f
         return -z * w + 1j * w * np.sqrt(np.maximum(1 - z * z, 1e-12))
@@ -170,7 +232,24 @@ class JointLaw:
 def relative_displacement(h: np.ndarray, freq_hz: np.ndarray, u: np.ndarray, i: int, j: int) -> float:
     """Rms relative displacement (m) of channels ``i``, ``j``.
 
-    From acceleration FRFs ``h[n_out, n_freq]`` and the drive's line amplitudes ``u``.
+    From acceleration FRFs ``h[n_out, n_freq]`` and the drive's line amplitudes ``u``:
+    ``sqrt(sum_k |(h_j - h_i) u / w_k^2|^2 / 2)``.
+
+    Parameters
+    ----------
+    h : ndarray of complex, shape (n_out, n_freq)
+        Accelerance FRFs, (m/s^2) per drive unit.
+    freq_hz : ndarray, shape (n_freq,)
+        Lines in Hz (positive: the acceleration is divided by ``w^2``).
+    u : ndarray of complex, shape (n_freq,)
+        The drive's peak amplitude per line (drive unit).
+    i, j : int
+        Rows of ``h`` of the two sensors; the motion is that of ``j`` relative to ``i``.
+
+    Returns
+    -------
+    float
+        The rms relative displacement in m.
     """
     w2 = (2 * np.pi * np.asarray(freq_hz)) ** 2
     dx = (h[j] - h[i]) * u / w2
@@ -178,7 +257,25 @@ def relative_displacement(h: np.ndarray, freq_hz: np.ndarray, u: np.ndarray, i: 
 
 
 def scaled_coupling(model: ReferenceModel, pair, drive_point: str) -> np.ndarray:
-    """``g_r = (phi_b,r - phi_a,r)^2`` (1/kg) from the drive-point-scaled reference shapes (NaN: no mass)."""
+    """``g_r = (phi_b,r - phi_a,r)^2`` (1/kg) from the drive-point-scaled reference shapes (NaN: no mass).
+
+    Divides a mode's fitted coupling ``c_r`` into the joint stiffness ``k_r = c_r / g_r`` in N/m.
+
+    Parameters
+    ----------
+    model : ReferenceModel
+        Reference model of a force drive (FRFs in (m/s^2)/N), whose drive-point residues scale
+        the shapes to unit modal mass.
+    pair : (str, str)
+        The sensors ``a``, ``b`` across the joint.
+    drive_point : str
+        The accelerometer at the force gauge.
+
+    Returns
+    -------
+    ndarray, shape (n_modes,)
+        ``g_r`` per reference mode in 1/kg; NaN for a mode whose modal mass is degenerate.
+    """
     ch = list(model.channels)
     dp, a, b = ch.index(drive_point), ch.index(pair[0]), ch.index(pair[1])
     lam = model.poles
@@ -197,6 +294,23 @@ def level_sigma(frfs: list[LevelFRF], model: ReferenceModel, table: ModalTable, 
     The same measure :func:`predict_poles` solves for at a held-out level, so that the law is fitted
     and used on one scale (the measured relative motion also holds the shape change with level,
     which the reference residues do not).
+
+    Parameters
+    ----------
+    frfs : list of LevelFRF
+        One per level, in the order of the rows of ``table``; their drive amplitudes ``U`` in
+        ``model.band_hz`` drive the synthesised FRFs.
+    model : ReferenceModel
+        The reference model (its residues and residual terms).
+    table : ModalTable
+        The fitted frequency and damping of every mode at every level, which give the poles.
+    pair : (str, str)
+        The two sensors across the joint.
+
+    Returns
+    -------
+    ndarray, shape (n_levels,)
+        Rms relative displacement of the pair per level in m.
     """
     ch = list(model.channels)
     i, j = ch.index(pair[0]), ch.index(pair[1])
@@ -369,7 +483,29 @@ def _weighted_median(v: np.ndarray, s: np.ndarray, w: np.ndarray) -> tuple[float
 
 
 def predict_poles(model: ReferenceModel, law: JointLaw, frf: LevelFRF) -> tuple[np.ndarray, float]:
-    """Poles of the model at a level predicted from its drive alone, and the relative displacement used."""
+    """Poles of the model at a level predicted from its drive alone, and the relative displacement used.
+
+    ``sigma`` is the fixed point of the relative displacement of the model at the law's poles of
+    ``sigma``, found by a damped iteration that starts at the reference model's relative
+    displacement (at most 60 steps, to a relative change of 1e-6).
+
+    Parameters
+    ----------
+    model : ReferenceModel
+        The reference model; its modes outside the law keep their poles.
+    law : JointLaw
+        The fitted joint law (its pair and modes).
+    frf : LevelFRF
+        The level to predict; only its lines in ``model.band_hz`` and its drive amplitudes ``U``
+        are used, not its measured FRFs.
+
+    Returns
+    -------
+    poles : ndarray of complex, shape (n_modes,)
+        The model's poles in rad/s with those of the law's modes at ``sigma``.
+    sigma : float
+        The predicted rms relative displacement of the law's pair in m.
+    """
     ch = list(model.channels)
     i, j = ch.index(law.pair[0]), ch.index(law.pair[1])
     m = (frf.freq_hz >= model.band_hz[0]) & (frf.freq_hz <= model.band_hz[1])
@@ -390,11 +526,25 @@ def predict_poles(model: ReferenceModel, law: JointLaw, frf: LevelFRF) -> tuple[
 def prove(model: ReferenceModel, law: JointLaw, frfs: list[LevelFRF]) -> dict:
     """Relative FRF error per level and channel before (reference model) and after (joint law).
 
+    Each level is predicted from its drive alone (:func:`predict_poles`), training and held-out
+    levels alike; the error is ``||H_meas - H_model|| / ||H_meas||`` over ``model.band_hz``.
+
+    Parameters
+    ----------
+    model : ReferenceModel
+        The reference model ("before").
+    law : JointLaw
+        The fitted joint law ("after").
+    frfs : list of LevelFRF
+        The levels to compare (the result is keyed by their labels, which must differ).
+
     Returns
     -------
     dict
-        label -> {'before': {ch: e}, 'after': {ch: e}, 'mean_before', 'mean_after', 'sigma_predicted_m',
-        'sigma_measured_m', and the arrays 'freq_hz', 'H_measured', 'H_nominal', 'H_fitted' for the report}.
+        label -> {'before': {ch: e}, 'after': {ch: e}, 'mean_before', 'mean_after', 'floor': {ch: e}
+        and 'mean_floor' (the noise and distortion, below which no model can go),
+        'sigma_predicted_m', 'sigma_measured_m', and the arrays 'freq_hz', 'H_measured',
+        'H_nominal', 'H_fitted' for the report}.
     """
     out = {}
     ch = list(model.channels)

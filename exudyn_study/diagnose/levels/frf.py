@@ -81,7 +81,21 @@ class LevelFRF:
         return np.hypot(self.sigma, self.distortion)
 
     def select(self, mask: np.ndarray) -> LevelFRF:
-        """Return the same FRFs at the lines where ``mask`` is True."""
+        """Return the same FRFs at the lines where ``mask`` is True.
+
+        Every per-line array (``freq_hz``, ``H``, ``sigma``, ``distortion``, ``U``) is cut to the
+        selected lines; the label, level, units, resolution and period count are kept.
+
+        Parameters
+        ----------
+        mask : ndarray of bool, shape (n_freq,)
+            True at the lines to keep, e.g. ``(freq_hz >= lo) & (freq_hz <= hi)`` for a band in Hz.
+
+        Returns
+        -------
+        LevelFRF
+            A new object at the selected lines (this one is unchanged).
+        """
         d = None if self.distortion is None else self.distortion[:, mask]
         return LevelFRF(
             self.label,
@@ -107,6 +121,23 @@ def detect_period(u: np.ndarray, min_correlation: float = 0.98, min_periods: int
     most ``n / min_periods``; the drive is periodic if that peak reaches ``min_correlation``
     and the record holds whole periods (a lag that divides the record; the lag is snapped
     to the nearest divisor within one sample).
+
+    Parameters
+    ----------
+    u : array_like, shape (n,)
+        The drive's samples (any unit: N, m/s^2, V); its mean is removed first.
+    min_correlation : float, optional
+        Normalised correlation (-) of the record with itself shifted by one period that makes
+        the drive periodic; 0.98 accepts measurement noise and a slowly drifting shaker gain.
+    min_periods : int, optional
+        Whole periods the record must hold at least: the longest period searched is
+        ``n // min_periods`` samples (2: a period can be checked against a second one).
+
+    Returns
+    -------
+    int or None
+        Samples per period (a divisor of ``n``), or None for a drive that does not repeat over
+        whole periods, a constant drive or a record of fewer than 8 samples.
     """
     u = np.asarray(u, float) - np.mean(u)
     n = u.size
@@ -320,6 +351,20 @@ def excited_band(ref: LevelFRF, requested: tuple[float, float] | None) -> tuple[
     Random drive: the drive's amplitude per line, smoothed over about 1 % of the lines, within
     30 dB of its peak, and the longest contiguous run of such lines; periodic drive:
     the excited lines from the first to the last (gaps of detection lines are part of the band).
+
+    Parameters
+    ----------
+    ref : LevelFRF
+        The reference (lowest) level, whose drive amplitudes ``U`` per line define the band.
+    requested : (float, float) or None
+        Analysis band (low, high) in Hz asked for (``--band``), or None for the excited band.
+        A requested band reaching beyond the excited band is accepted with a warning (those
+        lines carry only noise).
+
+    Returns
+    -------
+    (float, float)
+        The band (low, high) in Hz: the excited band, or the requested one.
 
     Raises
     ------

@@ -64,14 +64,46 @@ class ReferenceModel:
 
 
 def mode_term(residue: np.ndarray, pole: complex, freq_hz: np.ndarray) -> np.ndarray:
-    """One mode's contribution ``R / (jw - p) + conj(R) / (jw - conj(p))``, shape (n_out, n_freq)."""
+    """One mode's contribution ``R / (jw - p) + conj(R) / (jw - conj(p))``, shape (n_out, n_freq).
+
+    Parameters
+    ----------
+    residue : ndarray of complex, shape (n_out,)
+        The mode's residue ``R`` per channel, in the FRF's unit times rad/s (e.g.
+        ``(m/s^2)/N * rad/s`` for an accelerance per newton).
+    pole : complex
+        The mode's pole ``p`` in rad/s (upper half plane); its conjugate is added.
+    freq_hz : array_like, shape (n_freq,)
+        Lines in Hz.
+
+    Returns
+    -------
+    ndarray of complex, shape (n_out, n_freq)
+        The mode's part of the FRFs, in the FRF's unit.
+    """
     jw = 2j * np.pi * np.asarray(freq_hz, float)
     r = np.asarray(residue)[:, None]
     return r / (jw - pole) + np.conj(r) / (jw - np.conj(pole))
 
 
 def synthesise(model: ReferenceModel, freq_hz: np.ndarray, poles: np.ndarray | None = None) -> np.ndarray:
-    """FRFs of the model at ``freq_hz`` (optionally with other poles, same residues), (n_out, n_freq)."""
+    """FRFs of the model at ``freq_hz`` (optionally with other poles, same residues), (n_out, n_freq).
+
+    Parameters
+    ----------
+    model : ReferenceModel
+        Poles, residues and residual terms (``lower + upper (jw)^2``) of the modal model.
+    freq_hz : array_like, shape (n_freq,)
+        Lines in Hz.
+    poles : ndarray of complex, shape (n_modes,), optional
+        Poles in rad/s used instead of ``model.poles`` (same order, e.g. the poles of a level
+        predicted by a joint law); the residues and residual terms stay the model's.
+
+    Returns
+    -------
+    ndarray of complex, shape (n_out, n_freq)
+        The synthesised FRFs in the model's unit (response per drive).
+    """
     f = np.asarray(freq_hz, float)
     jw = 2j * np.pi * f
     p = model.poles if poles is None else np.asarray(poles)
@@ -86,7 +118,26 @@ def synthesise(model: ReferenceModel, freq_hz: np.ndarray, poles: np.ndarray | N
 
 
 def mode_window(model: ReferenceModel, r: int, freq_hz: np.ndarray) -> np.ndarray:
-    """Lines around mode ``r``: +-3 half-power bandwidths (at least +-5 lines), not past the neighbours."""
+    """Lines around mode ``r``: +-3 half-power bandwidths (at least +-5 lines), not past the neighbours.
+
+    The window stops halfway to the neighbouring modes' frequencies; if that leaves fewer than
+    7 lines, the 7 lines nearest the mode are taken instead, so that the mode's pole and its
+    residues and offsets stay determined.
+
+    Parameters
+    ----------
+    model : ReferenceModel
+        The modal model whose frequencies and damping ratios place the window.
+    r : int
+        0-based index of the mode in ``model.poles``.
+    freq_hz : ndarray, shape (n_freq,)
+        Lines in Hz, ascending (their median spacing is the line step).
+
+    Returns
+    -------
+    ndarray of bool, shape (n_freq,)
+        True at the lines of the window.
+    """
     f = model.frequency_hz
     z = model.damping_ratio
     step = float(np.median(np.diff(freq_hz)))
@@ -127,14 +178,52 @@ def _solve(pole, jw, h, w):
 
 
 def pole_of(theta) -> complex:
-    """Pole in rad/s of (frequency in Hz, damping ratio)."""
+    """Pole in rad/s of (frequency in Hz, damping ratio).
+
+    Parameters
+    ----------
+    theta : (float, float)
+        Undamped natural frequency ``f`` in Hz and damping ratio ``zeta`` (-).
+
+    Returns
+    -------
+    complex
+        ``-zeta w + j w sqrt(1 - zeta^2)`` with ``w = 2 pi f`` (rad/s, upper half plane).
+    """
     f, z = theta
     w = 2 * np.pi * f
     return complex(-z * w, w * np.sqrt(max(1 - z * z, 1e-12)))
 
 
 def fit_mode(model: ReferenceModel, r: int, frf: LevelFRF):
-    """Refit mode ``r`` on one level; returns (f, f_std, zeta, zeta_std, residues, residue_std, chi2)."""
+    """Refit mode ``r`` on one level; returns (f, f_std, zeta, zeta_std, residues, residue_std, chi2).
+
+    The other modes of ``model`` are subtracted at their current poles and residues; the fit
+    runs over the mode's window (:func:`mode_window`) as described in the module docstring.
+
+    Parameters
+    ----------
+    model : ReferenceModel
+        The modal model giving the start values of mode ``r`` and the held other modes.
+    r : int
+        0-based index of the mode to refit.
+    frf : LevelFRF
+        The level's FRFs (in the model's channels and unit), with their noise and distortion
+        levels as the weights.
+
+    Returns
+    -------
+    f, f_std : float
+        Undamped natural frequency and its standard deviation in Hz.
+    zeta, zeta_std : float
+        Damping ratio and its standard deviation (-).
+    residues : ndarray of complex, shape (n_out,)
+        The mode's residues per channel (FRF unit times rad/s).
+    residue_std : ndarray, shape (n_out,)
+        Standard deviation of each residue (of its complex value).
+    chi2 : float
+        Reduced chi-square of the fit (about 1 when the misfit is within the noise).
+    """
     m = mode_window(model, r, frf.freq_hz)
     f = frf.freq_hz[m]
     jw = 2j * np.pi * f

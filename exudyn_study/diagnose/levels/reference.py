@@ -231,6 +231,19 @@ def _masses(model: ReferenceModel, drive_point: str | None):
 def check_reference(model: ReferenceModel, frf: LevelFRF) -> None:
     """Raise when the reference model does not reproduce its own recording.
 
+    Everything diagnosed later is relative to this model, so a model that misfits its own
+    recording stops the diagnosis here. The verdict per channel is ``model.check`` (made by
+    :func:`identify_reference`); this function only reports it, locating the sub-band where the
+    misfit is largest.
+
+    Parameters
+    ----------
+    model : ReferenceModel
+        The reference model with its self-check, from :func:`identify_reference`.
+    frf : LevelFRF
+        The reference level's FRFs the model was identified from (all lines; only those in
+        ``model.band_hz`` are compared).
+
     Raises
     ------
     InputError

@@ -76,7 +76,23 @@ def _slope_sign(x, y, s) -> float:
 
 
 def screen_trends(table: ModalTable, settings: LevelSettings) -> list[ModeTrend]:
-    """Classify every mode's level dependence (see the module docstring)."""
+    """Classify every mode's level dependence (see the module docstring).
+
+    Parameters
+    ----------
+    table : ModalTable
+        Frequency, damping, their standard deviations and the amplitude of every mode at every
+        level; with 3 or more levels a trend must also agree with the weighted slope over all of
+        them.
+    settings : LevelSettings
+        The thresholds: ``trend_sigma``, ``min_frequency_change``, ``min_damping_change`` and
+        ``clearance_rise``.
+
+    Returns
+    -------
+    list of ModeTrend
+        One per mode of the table, in its order.
+    """
     order = np.argsort(table.levels)
     lo, hi = order[0], order[-1]
     x = np.log(np.maximum(table.amplitude, 1e-300))
@@ -117,7 +133,27 @@ def screen_trends(table: ModalTable, settings: LevelSettings) -> list[ModeTrend]
 
 
 def dominant_outcome(trends: list[ModeTrend]) -> str:
-    """Return the level-dependent outcome with the largest summed significance over the modes."""
+    """Return the level-dependent outcome with the largest summed significance over the modes.
+
+    The significance of a mode is ``|frequency_z| + |damping_z|``; the outcome whose modes sum to
+    the most is the one the joint law is fitted for.
+
+    Parameters
+    ----------
+    trends : list of ModeTrend
+        The screened modes (:func:`screen_trends`); at least one must have an outcome in
+        :data:`NONLINEAR`.
+
+    Returns
+    -------
+    str
+        One of :data:`NONLINEAR`.
+
+    Raises
+    ------
+    ValueError
+        If no mode has a level-dependent outcome.
+    """
     score: dict[str, float] = {}
     for t in trends:
         if t.outcome in NONLINEAR:
