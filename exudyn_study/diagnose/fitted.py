@@ -23,6 +23,15 @@ __all__ = ["apply_diagnosis", "load_diagnosis", "diagnosis_variant"]
 def load_diagnosis(source: Diagnosis | Mapping | str | os.PathLike) -> Diagnosis:
     """Return a :class:`Diagnosis` from a diagnosis, its dict or its JSON file.
 
+    Parameters
+    ----------
+    source : Diagnosis, mapping or path-like
+        A diagnosis, its ``to_dict()`` form, or the JSON file ``exudyn-study diagnose`` wrote.
+
+    Returns
+    -------
+    Diagnosis
+
     Raises
     ------
     InputError
@@ -44,7 +53,17 @@ def load_diagnosis(source: Diagnosis | Mapping | str | os.PathLike) -> Diagnosis
 
 
 def diagnosis_variant(diagnosis: Diagnosis) -> int | None:
-    """Return the rig model variant the diagnosis was made on (None: not a rig diagnosis)."""
+    """Return the rig model variant the diagnosis was made on (None: not a rig diagnosis).
+
+    Parameters
+    ----------
+    diagnosis : Diagnosis
+        A diagnosis; its metadata's ``model`` names the variant (1, 2 or 3) on the rig path.
+
+    Returns
+    -------
+    int or None
+    """
     v = diagnosis.metadata.get("model")
     return int(v) if isinstance(v, (int, float)) and not isinstance(v, bool) else None
 

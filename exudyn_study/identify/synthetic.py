@@ -375,7 +375,18 @@ class RandomCase:
     seed: int
 
     def simulate(self, sample_rate_hz: float = 1000.0) -> tuple[np.ndarray, np.ndarray]:
-        """Time data of the case, see :func:`simulate`."""
+        """Return the time data of the case, see :func:`simulate`.
+
+        Parameters
+        ----------
+        sample_rate_hz : float
+            Sample rate of the time data (Hz).
+
+        Returns
+        -------
+        (ndarray, ndarray)
+            As :func:`simulate`: the drive and the responses.
+        """
         return simulate(self.system, self.duration_s, sample_rate_hz=sample_rate_hz,
                         noise=self.noise, excitation_band_hz=self.excitation_band_hz,
                         seed=self.seed + 1_000_003)

@@ -128,6 +128,15 @@ def sensor_group(name: str) -> str:
     frame's sensors at its rear supports (ARVBZ, ARHBZ); every other frame sensor (side
     members, cross members, the tank and bracket mounts on the frame) is "frame and cross
     members". A name not in thesis Appendix A counts as frame.
+
+    Parameters
+    ----------
+    name : str
+        Sensor name (thesis Appendix A, e.g. ``"ASVZ"``).
+
+    Returns
+    -------
+    str
     """
     from exudyn_study.model.sensors import sensor
 
@@ -289,6 +298,11 @@ class GridResult:
     def group_ratios(self, model: int) -> dict[str, dict[str, np.ndarray]]:
         """Relative damage of one model by sensor group and damping, over the group's sensors and the signals.
 
+        Parameters
+        ----------
+        model : int
+            Model variant (1, 2 or 3).
+
         Returns
         -------
         dict group -> dict damping -> ndarray of ratios (1 = measured)
@@ -303,7 +317,22 @@ class GridResult:
         return {g: {d: np.asarray(v, float) for d, v in out[g].items()} for g in order}
 
     def median_ratio(self, model: int, damping: str, signal: str | None = None) -> float:
-        """Return the median relative damage (ratio) of a column over its sensors (and signals, if None)."""
+        """Return the median relative damage (ratio) of a column over its sensors (and signals, if None).
+
+        Parameters
+        ----------
+        model : int
+            Model variant (1, 2 or 3).
+        damping : str
+            The damping column (e.g. ``"step"``, ``"suggested"``).
+        signal : str, optional
+            One drive signal; None takes every signal of the grid.
+
+        Returns
+        -------
+        float
+            The median of simulated / measured pseudo damage (1 = measured).
+        """
         r = [c.damage.ratios for c in self.cells
              if c.model == model and c.damping == damping and (signal is None or c.signal == signal)]
         if not r:

@@ -284,6 +284,20 @@ def calibration_dict(result, model, target) -> dict:
 
     The metadata name the model, the target's source and the rear foundation's damping
     (``other_damping``: the model's damping name when it is a named function, else Adams default).
+
+    Parameters
+    ----------
+    result : CalibrationResult
+        The calibration of the model's flexible-body damping.
+    model : exudyn_study.model.Model
+        The model calibrated (its metadata name the variant and the damping it was built with).
+    target : ModalModel
+        The identified modes the calibration matched (their metadata name the source).
+
+    Returns
+    -------
+    dict
+        The ``exudyn_study.calibration`` JSON content.
     """
     other = str(model.metadata.get("damping", ""))
     if other not in ("adams-default", "step", "constant-1", "constant-2"):
