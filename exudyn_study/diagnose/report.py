@@ -142,6 +142,30 @@ def _frf_overlay(data: Mapping, path: Path) -> Path | None:
     return _save(fig, path)
 
 
+#: channels per row of a per-channel bar chart: with the figure width capped at ``_MAX_WIDTH_IN`` the
+#: labels stay readable when the PNG is shown at the page width (about 1100 px)
+_CHANNELS_PER_ROW = 14
+#: widest figure (in): 10 in at 110 dpi is about 1100 px, the page width, so no figure is shrunk
+_MAX_WIDTH_IN = 10.0
+
+
+def _rows_of(chans: list, per_row: int = _CHANNELS_PER_ROW) -> list[list]:
+    """Split the channels into rows of at most ``per_row``, of balanced length."""
+    n_rows = max(1, -(-len(chans) // per_row))
+    size = -(-len(chans) // n_rows) if chans else 0
+    return [chans[i : i + size] for i in range(0, len(chans), size)] if size else [[]]
+
+
+def _bar_figure(n_chans: int, per_channel_in: float):
+    """Figure with one bar-chart panel per row of channels, its width capped at ``_MAX_WIDTH_IN``."""
+    rows = max(1, -(-n_chans // _CHANNELS_PER_ROW))
+    longest = -(-n_chans // rows) if n_chans else 1
+    width = min(_MAX_WIDTH_IN, max(6.0, per_channel_in * longest + 1.5))
+    fig = _figure(width, 0.6 + 2.4 * rows)
+    # one y scale for all rows: bars of different rows compare directly
+    return fig, fig.subplots(rows, 1, squeeze=False, sharey=True)[:, 0]
+
+
 def _errors(diagnosis: Diagnosis, data: Mapping, path: Path) -> Path | None:
     if not diagnosis.findings:
         return None
@@ -158,50 +182,51 @@ def _errors(diagnosis: Diagnosis, data: Mapping, path: Path) -> Path | None:
             for lab, chans_ in per.items()
             if lab in final
         }
-        after_name = f"the {len(diagnosis.findings)} findings"
+        after_name = f"all {len(diagnosis.findings)} fitted physics"
     else:
         after_name = diagnosis.findings[0].physics
+    if not per:
+        return None
     chans = list(next(iter(per.values())))
     groups = {"train": list(data.get("train", [])), "held-out": list(data.get("holdout", []))}
-    fig = _figure(_bar_width_in(len(chans), 1.1), 3.2)
-    ax = fig.subplots()
-    x = np.arange(len(chans))
-    width = 0.2
-    drawn = []
+    if not any(lab in per for labs in groups.values() for lab in labs):
+        # the figures data do not say which recordings are training or held-out: one group of all
+        groups = {"all recordings": list(per)}
     colours = {
         ("train", "before"): "#f4a582",
         ("train", "after"): "#92c5de",
         ("held-out", "before"): "#ca0020",
         ("held-out", "after"): "#0571b0",
+        ("all recordings", "before"): "#888888",
+        ("all recordings", "after"): "#0571b0",
     }
-    k = 0
+    series = []
     for g, labs in groups.items():
         labs = [lab for lab in labs if lab in per]
-        if not labs:
-            continue
         for when in ("before", "after"):
-            vals = [np.mean([per[lab][ch][when] for lab in labs]) for ch in chans]
-            ax.bar(x + (k - 1.5) * width, vals, width, color=colours[(g, when)], label=f"{g}, {when}")
-            drawn += vals
-            k += 1
-    _log_axis_if_spread(ax, drawn)
-    ax.set_xticks(x)
-    many = len(chans) > 12
-    ax.set_xticklabels(chans, rotation=45 if many else 0, ha="right" if many else "center",
-                       fontsize=7 if many else None)
+            if labs:
+                vals = {ch: float(np.mean([per[lab][ch][when] for lab in labs])) for ch in chans}
+                series.append((f"{g}, {when}", colours[(g, when)], vals))
+    fig, axes = _bar_figure(len(chans), 0.65)
+    width = 0.8 / max(len(series), 1)
+    drawn = [v for _, _, vals in series for v in vals.values()]
     kind = "FRF error" if "FRF" in str(fit.get("metric", "")) else "error"
-    ax.set_ylabel(f"relative {kind} (-)")
-    ax.set_title(
-        f"{kind} per channel, nominal (before) vs with {after_name} (after)", fontsize=9
-    )
-    ax.legend(fontsize=7, ncol=2)
-    ax.grid(True, axis="y", alpha=0.3)
+    for ax, row in zip(axes, _rows_of(chans), strict=True):
+        x = np.arange(len(row))
+        for j, (name, colour, vals) in enumerate(series):
+            off = (j - (len(series) - 1) / 2) * width
+            ax.bar(x + off, [vals[ch] for ch in row], width, color=colour, label=name)
+        _log_axis_if_spread(ax, drawn)
+        ax.set_xticks(x)
+        ax.set_xticklabels(row, rotation=30 if len(row) > 8 else 0, ha="right" if len(row) > 8 else "center",
+                           fontsize=8)
+        ax.set_xlim(-0.6, max(len(row), 4) - 0.4)
+        ax.set_ylabel(f"relative {kind} (-)", fontsize=8)
+        ax.grid(True, axis="y", alpha=0.3)
+    axes[0].set_title(f"{kind} per channel, nominal (before) vs with {after_name} (after)", fontsize=9)
+    axes[0].legend(fontsize=7, ncol=len(series))
+    fig.tight_layout()
     return _save(fig, path)
-
-
-def _bar_width_in(n_channels: int, per_channel_in: float) -> float:
-    """Figure width of a per-channel bar chart (in): grows with the channels, capped for 42 sensors."""
-    return min(24.0, max(6.0, per_channel_in * n_channels + 2))
 
 
 def _log_axis_if_spread(ax, values) -> None:
@@ -213,36 +238,107 @@ def _log_axis_if_spread(ax, values) -> None:
 
 
 def _pseudo_damage(data: Mapping, path: Path) -> Path | None:
+    """Pseudo damage of the models relative to the measured one, per channel.
+
+    The measured pseudo damage is the reference (1 by definition): it is the dotted line at 1, not a
+    bar. The bars are the nominal model and the model with the fitted physics.
+    """
     pd = data.get("pseudo_damage")
     if not pd:
         return None
     chans = list(pd)
-    kinds = [k for k in ("measured", "before", "after") if any(k in pd[c] for c in chans)]
-    fig = _figure(_bar_width_in(len(chans), 1.0), 3.2)
-    ax = fig.subplots()
-    x = np.arange(len(chans))
-    width = 0.8 / max(len(kinds), 1)
-    names = {"measured": "measured", "before": "nominal model", "after": "with the fitted physics"}
-    for j, k in enumerate(kinds):
-        ax.bar(
-            x + (j - (len(kinds) - 1) / 2) * width,
-            [pd[c].get(k, np.nan) for c in chans],
-            width,
-            label=names[k],
-        )
-    _log_axis_if_spread(ax, [pd[c].get(k, np.nan) for c in chans for k in kinds])
-    ax.axhline(1.0, color="k", lw=0.8, ls=":")
-    ax.set_xticks(x)
-    ax.set_xticklabels(chans, rotation=45, ha="right", fontsize=7)
-    ax.set_ylabel("relative pseudo damage (-)")
-    ax.legend(fontsize=7)
-    ax.grid(True, axis="y", alpha=0.3)
+    kinds = [k for k in ("before", "after") if any(k in pd[c] for c in chans)]
+    if not kinds:
+        return None
+    fig, axes = _bar_figure(len(chans), 0.5)
+    width = 0.8 / len(kinds)
+    names = {"before": "nominal model", "after": "with the fitted physics"}
+    colours = {"before": "#ca0020", "after": "#0571b0"}
+    drawn = [pd[c].get(k, np.nan) for c in chans for k in kinds] + [1.0]
+    for ax, row in zip(axes, _rows_of(chans), strict=True):
+        x = np.arange(len(row))
+        for j, k in enumerate(kinds):
+            ax.bar(
+                x + (j - (len(kinds) - 1) / 2) * width,
+                [pd[c].get(k, np.nan) for c in row],
+                width,
+                color=colours[k],
+                label=names[k],
+            )
+        _log_axis_if_spread(ax, drawn)
+        ax.axhline(1.0, color="k", lw=0.9, ls=":", label="measured (= 1)")
+        ax.set_xticks(x)
+        ax.set_xticklabels(row, rotation=30 if len(row) > 8 else 0, ha="right" if len(row) > 8 else "center",
+                           fontsize=8)
+        ax.set_xlim(-0.6, max(len(row), 4) - 0.4)
+        ax.set_ylabel("pseudo damage / measured (-)", fontsize=8)
+        ax.grid(True, axis="y", alpha=0.3)
+    axes[0].set_title("pseudo damage of the model relative to the measured one (1: as measured)", fontsize=9)
+    axes[0].legend(fontsize=7, ncol=3)
+    fig.tight_layout()
     return _save(fig, path)
 
 
-def _table(rows, header) -> str:
-    head = "".join(f"<th>{html.escape(str(h))}</th>" for h in header)
-    body = "".join("<tr>" + "".join(f"<td>{html.escape(str(c))}</td>" for c in r) + "</tr>" for r in rows)
+_CSS = """
+body{font-family:"Helvetica Neue",Arial,"DejaVu Sans",sans-serif;font-size:15px;line-height:1.45;
+ color:#222;max-width:1100px;margin:0 auto;padding:0 16px 40px}
+h1{font-size:1.6em;margin:.6em 0 .2em}h2{font-size:1.25em;margin:1.4em 0 .4em;
+ border-bottom:2px solid #ddd;padding-bottom:.15em}h3{font-size:1.05em;margin:1em 0 .3em}
+table{border-collapse:collapse;margin:.3em 0 .8em;font-size:13px}
+th,td{border:1px solid #d4d4d4;padding:2px 8px;text-align:left;vertical-align:top}
+th{background:#eef1f5}tr:nth-child(even) td{background:#f8f8f8}
+td.num{text-align:right;font-variant-numeric:tabular-nums}
+.card{border:1px solid #ccd;border-left:5px solid #2a6fb0;border-radius:4px;padding:6px 14px;
+ margin:10px 0;background:#fff}
+.card.weak{border-left-color:#b07a00;background:#fffbf0}.card.unexplained{border-left-color:#999}
+.card h3{margin:.3em 0}.card p{margin:.3em 0}.facts{font-size:14px}
+.flag{display:inline-block;background:#fff1cc;color:#6b4a00;border:1px solid #e0b84d;
+ border-radius:3px;padding:0 5px;margin:1px 0;font-size:12px}
+.flag.bad{background:#fde2e2;color:#8a1010;border-color:#d88}
+.ok{color:#1b6e2a}.muted{color:#666;font-size:13px}
+.lead{font-size:1.05em;background:#f3f6fa;border:1px solid #dde3ea;padding:6px 12px;border-radius:4px}
+img{max-width:100%;height:auto;display:block;margin:4px 0 12px}
+details{margin:.4em 0}summary{cursor:pointer;color:#2a6fb0}
+pre{font-size:11px;max-height:500px;overflow:auto;background:#f6f6f6;padding:6px}
+"""
+
+#: a flag containing this text marks a finding whose parameters the data do not determine
+NOT_IDENTIFIABLE = "not identifiable"
+
+
+class _Html(str):
+    """Table cell or text that is already HTML (not escaped again)."""
+
+
+def _cell(c) -> str:
+    return c if isinstance(c, _Html) else html.escape(str(c))
+
+
+def _empty(c) -> bool:
+    return c is None or str(c).strip() in ("", "-")
+
+
+def _table(rows, header, numeric=()) -> str:
+    """HTML table; columns in which every cell is empty or "-" are left out.
+
+    Parameters
+    ----------
+    rows : sequence of sequences
+        Cells (str, or ``_Html`` for cells that are already HTML).
+    header : sequence of str
+    numeric : collection of int, optional
+        Indices of columns aligned right (numbers).
+    """
+    rows = [list(r) for r in rows]
+    keep = [j for j in range(len(header)) if any(not _empty(r[j]) for r in rows)]
+    head = "".join(f"<th>{html.escape(str(header[j]))}</th>" for j in keep)
+    body = "".join(
+        "<tr>"
+        + "".join(f"<td class='num'>{_cell(r[j])}</td>" if j in numeric else f"<td>{_cell(r[j])}</td>"
+                  for j in keep)
+        + "</tr>"
+        for r in rows
+    )
     return f"<table><tr>{head}</tr>{body}</table>"
 
 
@@ -252,6 +348,255 @@ def _fmt(v) -> str:
     if isinstance(v, float):
         return f"{v:.4g}"
     return str(v)
+
+
+def _not_identifiable(f) -> bool:
+    return any(NOT_IDENTIFIABLE in t.lower() for t in f.flags)
+
+
+def _where(loc) -> str:
+    """Place of a finding, unexplained mismatch or candidate: component, interface, sensors."""
+    if isinstance(loc, str):
+        return loc
+    if not isinstance(loc, Mapping):
+        return "-"
+    parts = [str(loc[k]) for k in ("component", "interface") if loc.get(k)]
+    sensors = loc.get("sensors") or []
+    if isinstance(sensors, str):
+        sensors = [sensors]
+    if sensors and not (len(parts) == 1 and parts[0] == "-".join(sensors)):
+        parts.append("sensors " + ", ".join(map(str, sensors)))
+    elif sensors and not parts:
+        parts.append(", ".join(map(str, sensors)))
+    return "; ".join(parts) or "-"
+
+
+def _band(band) -> str:
+    return "-" if band is None else f"{band[0]:.4g}-{band[1]:.4g} Hz"
+
+
+def _flags_html(flags) -> _Html:
+    return _Html(
+        " ".join(
+            f"<span class='flag{' bad' if NOT_IDENTIFIABLE in t.lower() else ''}'>{html.escape(t)}</span>"
+            for t in flags
+        )
+    )
+
+
+def _param_text(name: str, p: Mapping) -> str:
+    """``name = value unit (± std)`` with an at-bound mark."""
+    unit = "" if p["unit"] in ("", "1", "-") else f" {p['unit']}"
+    txt = f"{name} = {_fmt(p['value'])}{unit}"
+    if p.get("std") is not None and p["value"]:
+        txt += f" (±{abs(p['std'] / p['value']):.0%})"
+    if p.get("at_bound"):
+        txt += " [at bound]"
+    return txt
+
+
+def _member_name(f) -> str:
+    return f.physics + (" (not identifiable)" if _not_identifiable(f) else "")
+
+
+def _fit_key(f) -> str:
+    return json.dumps(f.to_dict()["fit"], sort_keys=True)
+
+
+def _fit_groups(findings) -> list[tuple[dict, list]]:
+    """Group the findings by identical fit dicts (a joint refit gives all its findings one fit)."""
+    groups: dict[str, tuple[dict, list]] = {}
+    for f in findings:
+        groups.setdefault(_fit_key(f), (f.fit, []))[1].append(f)
+    return list(groups.values())
+
+
+def _arrow(before, after) -> str:
+    return f"{_fmt(before)} → {_fmt(after)}"
+
+
+def _fit_section(fit: Mapping, members: list, number: int, n_groups: int) -> str:
+    """Return the before/after table of one fit, shown once for all the findings fitted with it."""
+    names = ", ".join(_member_name(f) for f in members)
+    title = f"Fit {number}" if n_groups > 1 else "Fit"
+    out = [f"<h3>{title}: {'fitted together: ' if len(members) > 1 else ''}{html.escape(names)}</h3>"]
+    out.append(
+        _table(
+            [
+                ("training", _fmt(fit["train_before"]), _fmt(fit["train_after"])),
+                ("held-out", _fmt(fit["holdout_before"]), _fmt(fit["holdout_after"])),
+            ],
+            ("recordings", "nominal model", "with the fitted physics"),
+            numeric=(1, 2),
+        )
+    )
+    out.append(f"<p class='muted'>metric: {html.escape(str(fit['metric']))}</p>")
+    per = fit.get("per_channel") or {}
+    if per:
+        rows = [
+            (lab, ch, _fmt(v["before"]), _fmt(v["after"])) for lab, d in per.items() for ch, v in d.items()
+        ]
+        out.append(
+            "<details><summary>per recording and channel</summary>"
+            + _table(rows, ("recording", "channel", "before", "after"), numeric=(2, 3))
+            + "</details>"
+        )
+    return "\n".join(out)
+
+
+def _facts(loc, band, level_dependent: bool, extra: str = "") -> _Html:
+    """One line of the evidence's place: component, interface, sensors, band, level dependence."""
+    items = [
+        ("component", loc.get("component")),
+        ("interface", loc.get("interface")),
+        ("sensors", ", ".join(loc.get("sensors") or [])),
+        ("band", None if band is None else _band(band)),
+        ("level dependent", "yes" if level_dependent else "no"),
+    ]
+    text = " · ".join(f"<b>{k}</b> {html.escape(str(v))}" for k, v in items if not _empty(v))
+    return _Html(f"<p class='facts'>{text}{' · ' + extra if extra else ''}</p>")
+
+
+def _finding_card(f, fit_no: dict, n_groups: int, weak: bool = False) -> str:
+    """One finding: where, its band and sensors, its parameters, flags and explanation."""
+    out = [f"<div class='card{' weak' if weak else ''}'><h3>{html.escape(f.physics)}</h3>"]
+    fit_ref = f"fit {fit_no[_fit_key(f)]}" if n_groups > 1 else "the fit"
+    out.append(
+        _facts(
+            f.location,
+            f.band_hz,
+            f.level_dependent,
+            f"{fit_ref} under <a href='#fits'>Error before and after</a>",
+        )
+    )
+    if f.flags:
+        out.append(f"<p>{_flags_html(f.flags)}</p>")
+    if f.parameters:
+        out.append(
+            _table(
+                [
+                    (
+                        k,
+                        _fmt(p["value"]),
+                        p["unit"],
+                        _fmt(p["std"]),
+                        "-" if p["std"] is None or not p["value"] else f"{abs(p['std'] / p['value']):.1%}",
+                        _Html("<span class='flag'>at bound</span>") if p.get("at_bound") else "-",
+                    )
+                    for k, p in f.parameters.items()
+                ],
+                ("parameter", "value", "unit", "std", "relative std", "at bound"),
+                numeric=(1, 3, 4),
+            )
+        )
+    out.append(f"<p>{html.escape(f.explanation)}</p></div>")
+    return "\n".join(out)
+
+
+def _summary(diagnosis: Diagnosis, found: list, weak: list, groups: list) -> list[str]:
+    """Return the summary: what is missing, how sure, the error before -> after, what is unexplained."""
+    out = ["<h2>Summary</h2>"]
+    if not diagnosis.mismatch_found:
+        out.append("<p class='lead ok'>No statistically significant mismatch: no missing physics found.</p>")
+        return out
+    if found:
+        out.append(
+            _table(
+                [
+                    (
+                        f.physics,
+                        _where(f.location),
+                        _band(f.band_hz),
+                        "; ".join(_param_text(k, p) for k, p in f.parameters.items()) or "-",
+                        _flags_html(f.flags) if f.flags else _Html("<span class='ok'>none</span>"),
+                    )
+                    for f in found
+                ],
+                ("missing physics", "where", "band", "parameters", "flags"),
+            )
+        )
+    else:
+        out.append("<p class='lead'>No modelled physics explains the mismatch.</p>")
+    if weak:
+        out.append(
+            "<p><span class='flag bad'>not identifiable</span> also fitted, but the data do not determine "
+            f"them (not counted as findings): {html.escape(', '.join(f.physics for f in weak))}</p>"
+        )
+    final = diagnosis.metadata.get("final_holdout_error")
+    rows = []
+    for i, (fit, members) in enumerate(groups, 1):
+        label = ", ".join(_member_name(f) for f in members)
+        rows.append(
+            (
+                (f"fit {i}: " if len(groups) > 1 else "") + label,
+                _arrow(fit["train_before"], fit["train_after"]),
+                _arrow(fit["holdout_before"], fit["holdout_after"]),
+            )
+        )
+    if rows:
+        out.append("<h3>Error, nominal model → with the fitted physics</h3>")
+        out.append(_table(rows, ("fitted physics", "training", "held-out"), numeric=(1, 2)))
+        metrics = {str(fit["metric"]) for fit, _ in groups}
+        if len(metrics) == 1:
+            out.append(f"<p class='muted'>metric: {html.escape(metrics.pop())}</p>")
+        if final:
+            vals = final if isinstance(final, list) else [final]
+            out.append(
+                "<p class='muted'>held-out error of the final model with all findings: "
+                + html.escape(", ".join(_fmt(v) for v in vals))
+                + "</p>"
+            )
+    if diagnosis.unexplained:
+        out.append("<h3>Unexplained mismatch</h3>")
+        out.append(
+            _table(
+                [
+                    (
+                        _where(u["location"]),
+                        _band(u.get("band_hz")),
+                        "yes" if u.get("level_dependent") else "no",
+                        u.get("explanation", ""),
+                    )
+                    for u in diagnosis.unexplained
+                ],
+                ("where", "band", "level dependent", "explanation"),
+            )
+        )
+    return out
+
+
+def _candidates(cands) -> str:
+    """Candidates table: physics, place, scores, status (accepted, or the reason of the rejection)."""
+    rows = []
+    for c in cands:
+        loc = c.get("location")
+        if loc is None and (c.get("interface") or c.get("sensors")):
+            loc = {"interface": c.get("interface"), "sensors": c.get("sensors") or []}
+        status = (
+            _Html(f"<span class='muted'>rejected: {html.escape(str(c['rejected']))}</span>")
+            if c.get("rejected")
+            else _Html("<span class='ok'>accepted</span>")
+        )
+        rows.append(
+            (
+                _fmt(c.get("round")),
+                c.get("physics", "-"),
+                "-" if loc is None else _where(loc),
+                _fmt(c.get("signature_score")),
+                _fmt(c.get("bic")),
+                _fmt(c.get("improvement")),
+                _fmt(c.get("holdout_after", c.get("holdout_error_after"))),
+                status,
+            )
+        )
+    return _table(
+        rows,
+        (
+            "round", "physics", "place", "signature score", "BIC (train)", "improvement", "held-out error",
+            "status",
+        ),
+        numeric=(3, 4, 5, 6),
+    )
 
 
 def write_report(
@@ -295,14 +640,51 @@ def write_report(
         "pseudo_damage.png": _pseudo_damage(data, out / "pseudo_damage.png"),
     }
     meta = diagnosis.metadata
+    found = [f for f in diagnosis.findings if not _not_identifiable(f)]
+    weak = [f for f in diagnosis.findings if _not_identifiable(f)]
+    groups = _fit_groups(diagnosis.findings)
+    fit_no = {_fit_key(members[0]): i for i, (_, members) in enumerate(groups, 1)}
     parts = [
-        "<!DOCTYPE html><html><head><meta charset='utf-8'><title>exudyn_study diagnosis</title>",
-        "<style>body{font-family:sans-serif;max-width:1100px;margin:auto}table{border-collapse:collapse}"
-        "td,th{border:1px solid #bbb;padding:3px 8px;font-size:90%}img{max-width:100%}</style></head><body>",
+        "<!DOCTYPE html><html><head><meta charset='utf-8'>"
+        "<meta name='viewport' content='width=device-width, initial-scale=1'>"
+        f"<title>exudyn_study diagnosis</title><style>{_CSS}</style></head><body>",
         "<h1>Diagnosis</h1>",
-        f"<p><b>{html.escape(diagnosis.summary)}</b></p>",
+        f"<p class='lead'><b>{html.escape(_headline(diagnosis, found))}</b></p>",
     ]
+    parts += _summary(diagnosis, found, weak, groups)
+    if found:
+        parts.append(f"<h2>Findings ({len(found)})</h2>")
+        parts += [_finding_card(f, fit_no, len(groups)) for f in found]
+    if weak:
+        parts.append("<h2>Fitted but not identifiable (not counted as findings)</h2>")
+        parts.append(
+            "<p class='muted'>Fitted with the findings, but the recordings do not determine their "
+            "parameters; the values below are not evidence of the physics.</p>"
+        )
+        parts += [_finding_card(f, fit_no, len(groups), weak=True) for f in weak]
+    if groups:
+        parts.append("<h2 id='fits'>Error before and after</h2>")
+        parts += [_fit_section(fit, members, i, len(groups)) for i, (fit, members) in enumerate(groups, 1)]
+    for u in diagnosis.unexplained:
+        parts.append("<div class='card unexplained'><h3>Unexplained mismatch</h3>")
+        parts.append(_facts(u["location"], u.get("band_hz"), bool(u.get("level_dependent"))))
+        parts.append(f"<p>{html.escape(u.get('explanation', ''))}</p></div>")
+    titles = {
+        "residual_map.png": "Residual of the nominal model per sensor and frequency",
+        "frf_overlay.png": "Measured, nominal and fitted response at the located sensors",
+        "errors.png": "Error per channel, before and after",
+        "pseudo_damage.png": "Pseudo damage relative to the measured",
+    }
+    if any(p is not None for p in figs.values()):
+        parts.append("<h2>Figures</h2>")
+    for name, p in figs.items():
+        if p is not None:
+            parts.append(f"<h3>{html.escape(titles[name])}</h3><img src='{name}' alt='{name}'>")
+    if meta.get("candidates"):
+        parts.append("<h2>Candidates</h2>")
+        parts.append(_candidates(meta["candidates"]))
     if meta:
+        parts.append("<h2>Input</h2>")
         rows = [
             (k, meta[k])
             for k in ("model", "reference", "train", "holdout", "band_hz", "wall_time_s")
@@ -315,87 +697,16 @@ def write_report(
             )
         )
         levels = meta.get("levels") or meta.get("levels_m_s2")
-        if levels:
+        if isinstance(levels, Mapping) and levels:
             unit = meta.get("level_unit", "m/s^2")
             what = "force" if unit == "N" else "drive acceleration"
-            parts.append("<h3>Excitation levels</h3>")
             parts.append(
-                _table([(k, _fmt(v)) for k, v in levels.items()], ("recording", f"{what} rms ({unit})"))
+                _table(
+                    [(k, _fmt(v)) for k, v in levels.items()],
+                    ("recording", f"{what} rms ({unit})"),
+                    numeric=(1,),
+                )
             )
-    for f in diagnosis.findings:
-        parts.append(f"<h2>Finding: {html.escape(f.physics)}</h2>")
-        loc = f.location
-        parts.append(
-            _table(
-                [
-                    ("interface", loc.get("interface") or "-"),
-                    ("component", loc.get("component") or "-"),
-                    ("sensors", ", ".join(loc["sensors"])),
-                    ("band (Hz)", "-" if f.band_hz is None else f"{f.band_hz[0]:.4g}-{f.band_hz[1]:.4g}"),
-                    ("level dependent", "yes" if f.level_dependent else "no"),
-                ],
-                ("where", ""),
-            )
-        )
-        parts.append(f"<p>{html.escape(f.explanation)}</p>")
-        if f.flags:
-            parts.append("<ul>" + "".join(f"<li>{html.escape(t)}</li>" for t in f.flags) + "</ul>")
-        parts.append(
-            _table(
-                [
-                    (k, _fmt(p["value"]), p["unit"], _fmt(p["std"]), "at bound" if p.get("at_bound") else "")
-                    for k, p in f.parameters.items()
-                ],
-                ("parameter", "value", "unit", "std", ""),
-            )
-        )
-        parts.append("<h3>Error before and after</h3>")
-        parts.append(
-            _table(
-                [
-                    ("training", _fmt(f.fit["train_before"]), _fmt(f.fit["train_after"])),
-                    ("held-out", _fmt(f.fit["holdout_before"]), _fmt(f.fit["holdout_after"])),
-                ],
-                ("recordings", "nominal model", "with the fitted physics"),
-            )
-        )
-        parts.append(f"<p><small>metric: {html.escape(str(f.fit['metric']))}</small></p>")
-        per = f.fit.get("per_channel") or {}
-        if per:
-            rows = [
-                (lab, ch, _fmt(v["before"]), _fmt(v["after"]))
-                for lab, d in per.items()
-                for ch, v in d.items()
-            ]
-            parts.append(
-                "<details><summary>per recording and channel</summary>"
-                + _table(rows, ("recording", "channel", "before", "after"))
-                + "</details>"
-            )
-    for u in diagnosis.unexplained:
-        parts.append("<h2>Unexplained mismatch</h2>")
-        parts.append(f"<p>{html.escape(u.get('explanation', ''))}</p>")
-    if not diagnosis.mismatch_found:
-        parts.append("<p>No statistically significant mismatch: no missing physics found.</p>")
-    for name, p in figs.items():
-        if p is not None:
-            parts.append(f"<h3>{html.escape(name[:-4].replace('_', ' '))}</h3><img src='{name}'>")
-    if meta.get("candidates"):
-        parts.append("<h3>Candidates</h3>")
-        parts.append(
-            _table(
-                [
-                    (
-                        c["physics"],
-                        _fmt(c.get("signature_score")),
-                        _fmt(c.get("bic")),
-                        c.get("rejected") or "accepted",
-                    )
-                    for c in meta["candidates"]
-                ],
-                ("physics", "signature score", "BIC (train)", "status"),
-            )
-        )
     parts.append(
         "<details><summary>diagnosis JSON</summary><pre>"
         + html.escape(json.dumps(diagnosis.to_dict(), indent=1))
@@ -405,3 +716,13 @@ def write_report(
     from exudyn_study.infra.atomic import write_text_atomic
 
     return write_text_atomic(out / "index.html", "\n".join(parts), "report")
+
+
+def _headline(diagnosis: Diagnosis, found: list) -> str:
+    """One line: the findings (not-identifiable ones left out) and the count of unexplained mismatch."""
+    if not diagnosis.mismatch_found:
+        return "no missing physics found"
+    parts = [f"{f.physics} at {_where(f.location)}" for f in found]
+    if diagnosis.unexplained:
+        parts.append(f"{len(diagnosis.unexplained)} unexplained mismatch(es)")
+    return "; ".join(parts) or "mismatch found, not explained"
