@@ -7,7 +7,15 @@
 - ``frf_overlay.png``: measured vs nominal vs fitted transmissibility magnitude at the located
   sensors, on the held-out recordings first;
 - ``errors.png``: FRF error per channel before and after, training and held-out;
-- ``pseudo_damage.png``: pseudo-damage bars (measured / nominal / fitted) when given.
+- ``pseudo_damage.png``: pseudo damage of the nominal and the fitted model relative to the
+  measured one (the measured, 1 by definition, is the line at 1), when given.
+
+The bar charts are at most ``_MAX_WIDTH_IN`` wide and wrap their channels into rows, so their
+labels stay readable at the page width. The page gives a summary first (the findings, how sure,
+the error before -> after, the unexplained mismatch), then one card per finding, the fitted but
+not identifiable physics apart (a flag containing "not identifiable": not counted as findings),
+one before/after table per distinct fit (findings of one joint refit share it), the figures and
+the candidates. Table columns in which every value is empty or "-" are left out.
 
 Every file is written to a temporary name and renamed, ``index.html`` last, so a reader
 never sees a half-written report.
