@@ -35,8 +35,7 @@ def _recordings(bodies, augmentations, seed=5):
 def _diagnose(bodies, train, hold, **kw):
     from exudyn_study.diagnose.rig import RigDiagnosisSettings, diagnose_rig
 
-    st = RigDiagnosisSettings()
-    st.train_duration_s, st.screen_duration_s = 12.0, 8.0
+    st = RigDiagnosisSettings(train_duration_s=12.0, screen_duration_s=8.0)
     return diagnose_rig(1, [train], [hold], damping="constant-2", bodies=bodies, sensors=FRAME_SENSORS,
                         settings=st, **kw)
 
