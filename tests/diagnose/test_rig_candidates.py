@@ -185,8 +185,8 @@ CONNECTORS = {
             "damping_time_s": 1.5e-3,
         },
     ),
-    # all its moduli free (rig_candidates.PAD_NAMES), carried as the entry's factors and torsion change: rocking
-    # unlike compression about each axis, torsion softer than the rubber (no damping on that part)
+    # all its moduli free (rig_candidates.PAD_NAMES), carried as the entry's factors and torsion change:
+    # rocking unlike compression about each axis, torsion softer than the rubber (no damping on that part)
     "bushing_stiffness:all": (
         "bracket_left",
         None,
