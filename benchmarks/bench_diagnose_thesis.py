@@ -50,6 +50,7 @@ written; ``benchmarks/make_results_md.py`` collects them in ``benchmarks/RESULTS
 from __future__ import annotations
 
 import argparse
+import dataclasses
 import json
 import os
 import sys
@@ -240,9 +241,9 @@ def main(argv=None) -> int:
     print(f"protocol {args.protocol}: train {[p.name for p in train]}, hold out {[p.name for p in holdout]}")
     st = RigDiagnosisSettings()
     if args.time_budget is not None:
-        st.time_budget_s = float(args.time_budget)
+        st = dataclasses.replace(st, time_budget_s=float(args.time_budget))
     if args.no_all_prior_start:
-        st.composite_all_prior_start = False
+        st = dataclasses.replace(st, composite_all_prior_start=False)
     figures: dict = {}
     d = diagnose_rig(
         sc.variant,

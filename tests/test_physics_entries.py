@@ -25,7 +25,7 @@ from rig_fixtures import FRAME_SENSORS, MODEL3_SENSORS, mini_bodies, mini_model3
 TWO_PI = 2 * math.pi
 RATE_HZ = 1000.0
 NEW = ("joint_stiffness", "joint_friction", "bushing_stiffening", "sloshing", "modal_damping", "sensor_gain",
-       "bushing_stiffness", "rear_support_compliance", "tank_wall_mode")
+       "bushing_stiffness", "rear_support_compliance", "tank_wall_mode", "tuned_mass_damper")
 
 
 @pytest.fixture(scope="module", autouse=True)
@@ -987,13 +987,15 @@ def test_model3_bushing_joints_are_unloaded_at_the_reference(bodies3):
     k_t = 2e7
 
     def build(k):
-        model = build_model_from_bodies(bodies, 3, damping="constant-2", sensors=MODEL3_SENSORS, exudyn_mesh="used",
+        model = build_model_from_bodies(bodies, 3, damping="constant-2", sensors=MODEL3_SENSORS,
+                                        exudyn_mesh="used",
                                         bushing=BushingParameters(stiffness=(k, k, k, 2e5, 2e5, 2e5)))
         model.assemble()
         return model
 
     model = build(k_t)
-    gap = model.interfaces["tank_left.tank_left_front"].position_m - model.interfaces["frame.tank_left_front"].position_m
+    gap = (model.interfaces["tank_left.tank_left_front"].position_m
+           - model.interfaces["frame.tank_left_front"].position_m)
     assert np.linalg.norm(gap) > 5e-3
     force = np.asarray(model.mbs.GetObjectOutput(model.joints["tank_left.tank_left_front"],
                                                  exu.OutputVariableType.ForceLocal))
@@ -1018,3 +1020,55 @@ def test_sloshing_damps_across_the_tank_by_its_lateral_factor(bodies3):
     assert sorted(by_direction) == ["X", "Y"]
     assert by_direction["X"] == pytest.approx(zeta_s, rel=0.03)
     assert by_direction["Y"] == pytest.approx(3.0 * zeta_s, rel=0.03)
+
+
+# --------------------------------------------------------------------------------------- tuned_mass_damper
+def test_tuned_mass_damper_splits_the_mode_it_is_tuned_to_and_adds_exactly_its_mass(bodies1):
+    """Den Hartog: an undamped absorber of mass ratio ``mu = m |phi|^2`` tuned to an isolated mode ``f``
+    splits it into ``f_1,2^2 = f^2 (1 + mu / 2 -+ sqrt(mu + mu^2 / 4))`` (so ``f_1 f_2 = f^2``); the drive
+    then moves the nominal mass plus ``m`` times the location's squared drive motion."""
+    from exudyn_study.linear.nonlinear import marker_displacement_map
+    from exudyn_study.model import linearise
+    from exudyn_study.physics.entries import location_point
+
+    model0 = _model1(bodies1)
+    markers = {s: location_point(model0, s)[0] for s in FRAME_SENSORS}
+    lin0 = linearise(model0)
+    f0, phi0 = _undamped(lin0)
+    # the best-isolated mode in 8-60 Hz that the location moves most
+    best = None
+    for s, marker in markers.items():
+        d = marker_displacement_map(model0, marker)
+        motion = d @ (lin0.nullspace.T @ phi0)
+        for k in np.flatnonzero((f0 > 8.0) & (f0 < 60.0)):
+            gap = min(abs(f0[j] - f0[k]) / f0[k] for j in range(f0.size) if j != k)
+            mu_per_kg = float(np.sum(motion[:, k] ** 2))
+            if gap > 0.2 and (best is None or mu_per_kg > best[0]):
+                best = (mu_per_kg, s, k, d)
+    assert best is not None
+    mu_per_kg, loc, k, d = best
+    mu = 0.01
+    mass = mu / mu_per_kg
+    assert 0.1 < mass < 200.0
+    model = _model1(bodies1)
+    entry("tuned_mass_damper").apply(model, loc, mass_kg=mass, frequency_hz=float(f0[k]), damping_ratio=0.0)
+    lin = linearise(model)
+    f1 = _undamped(lin)[0]
+    near = np.sort(f1[np.abs(f1 - f0[k]) < 0.12 * f0[k]])
+    # the absorber moves in three directions: along the mode's motion at the location it splits the mode,
+    # across it its two modes stay at the tuning frequency (the structure hardly moves in them)
+    assert near.size == 4, (f0[k], near)
+    lo, hi = near[0], near[-1]
+    np.testing.assert_allclose(near[1:3], f0[k], rtol=0.01)
+    root = math.sqrt(mu + mu**2 / 4)
+    assert lo < f0[k] < hi
+    # the two-mode formula leaves out the other modes (>= 20 % away): they shift both by about 1 %
+    assert lo * hi == pytest.approx(f0[k] ** 2, rel=0.015)
+    assert (hi**2 - lo**2) / f0[k] ** 2 == pytest.approx(2 * root, rel=0.05)
+    assert lo**2 == pytest.approx(f0[k] ** 2 * (1 + mu / 2 - root), rel=0.015)
+    # mass: the drive moves the absorber with the location (its spring carries no static load)
+    r0, r = lin0.drive_shape, lin.drive_shape
+    added = mass * float(np.sum((d @ r0) ** 2))
+    # (the location's motion map comes from central differences: 1e-6)
+    assert r @ lin.full_mass @ r == pytest.approx(r0 @ lin0.full_mass @ r0 + added, rel=1e-6)
+    assert added > 1e-3 * (r0 @ lin0.full_mass @ r0)

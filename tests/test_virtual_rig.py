@@ -1,4 +1,5 @@
-"""Virtual test rig: scenarios, truth files apart from recordings, the measurement chain, bad input (mini frame)."""
+"""Virtual test rig: scenarios, truth files apart from recordings, the measurement chain, bad input
+(mini frame)."""
 
 from __future__ import annotations
 
@@ -49,7 +50,8 @@ def test_registry_has_none_thesis_and_one_scenario_per_effect():
 def test_recording_and_truth_are_separate_and_the_recording_names_no_physics(bodies, tmp_path):
     sc = Scenario("mini-mass", "test", variant=1, damping="constant-2",
                   augmentations=(Augment("added_mass", "ARFVZ", {"mass_kg": 20.0}),))
-    paths = run_virtual_test(sc, ["white-noise"], tmp_path, duration_s=4.0, bodies=bodies, sensors=FRAME_SENSORS)
+    paths = run_virtual_test(sc, ["white-noise"], tmp_path, duration_s=4.0, bodies=bodies,
+                             sensors=FRAME_SENSORS)
     assert [p.name for p in paths] == [recording_name("mini-mass", "white-noise")]
     truth = json.loads((tmp_path / truth_name("mini-mass")).read_text())
     assert truth["augmentations"][0]["physics"] == "added_mass"
@@ -86,7 +88,8 @@ def test_level_scales_a_linear_truth(bodies):
     from exudyn_study.virtual_rig.measurement import AcquisitionParameters, ServoParameters
 
     sc = Scenario("mini-none", "test", variant=1, damping="constant-2",
-                  servo=ServoParameters(tracking_noise_rms_m=0.0), acquisition=AcquisitionParameters(noise_density=0.0))
+                  servo=ServoParameters(tracking_noise_rms_m=0.0),
+                  acquisition=AcquisitionParameters(noise_density=0.0))
     a = virtual_recording(sc, "test", 4.0, level=1.0, bodies=bodies, sensors=FRAME_SENSORS)
     b = virtual_recording(sc, "test", 4.0, level=0.5, bodies=bodies, sensors=FRAME_SENSORS)
     ya, yb = a.channel("ARFVZ").data, b.channel("ARFVZ").data
@@ -122,6 +125,32 @@ def test_blind_scenarios_are_reproducible_and_opaque():
         sc = random_scenario(i)
         sc.validate()
     assert random_scenario(5, effect="none").augmentations == ()
+
+
+def test_wide_blind_scenarios_mix_effects_and_keep_a_held_back_range():
+    """The wide pool draws every effect kind, two effects in at least 30 % of the scenarios (never two
+    sensor faults, never at one place), reproducibly; the held-back seed range draws other scenarios."""
+    from exudyn_study.physics import CATALOGUE
+    from exudyn_study.virtual_rig import HELD_BACK_SEED, WIDE_EFFECTS, wide_scenario
+
+    assert set(WIDE_EFFECTS) <= set(CATALOGUE)
+    dev = [wide_scenario(i) for i in range(60)]
+    assert wide_scenario(7) == dev[7] and dev[7].name == "wide-007" and dev[7].description == "blind scenario"
+    two = [sc for sc in dev if len(sc.augmentations) == 2]
+    assert len(two) >= 0.3 * len(dev)
+    for sc in two:
+        a, b = sc.augmentations
+        assert not (a.physics.startswith("sensor_") and b.physics.startswith("sensor_"))
+        assert a.location is None or a.location != b.location
+    drawn = {a.physics for sc in dev for a in sc.augmentations}
+    assert drawn == set(WIDE_EFFECTS)
+    for sc in dev[:20]:
+        sc.validate()
+    held = [wide_scenario(i, rng_seed=HELD_BACK_SEED) for i in range(20)]
+    assert [h.augmentations for h in held] != [d.augmentations for d in dev[:20]]
+    assert wide_scenario(3, effect="none").augmentations == ()
+    with pytest.raises(InputError, match="wide effect 'nope' is unknown"):
+        wide_scenario(1, effect="nope")
 
 
 def test_cli_lists_scenarios_and_rejects_unknown(tmp_path):

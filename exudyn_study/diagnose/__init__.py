@@ -7,7 +7,9 @@ Both paths return a :class:`~exudyn_study.diagnose.schema.Diagnosis` (JSON schem
   excitation levels; the nominal model is a linear modal model identified from the
   lowest-level recording; finds, names and fits joint nonlinearities (friction micro-slip,
   stiffening, clearance) across sensor-pair interfaces;
-- :func:`exudyn_study.diagnose.rig.diagnose_rig`: the chassis on the rig (model variants 1-3);
+- :func:`exudyn_study.diagnose.rig.diagnose_rig`: the chassis on the rig (model variants 1-3),
+  as stages (compare, locate, screen, fit, prove, explain: ``rig_<stage>`` modules, state in
+  :mod:`.rig_state`, settings :class:`~exudyn_study.diagnose.rig_settings.RigDiagnosisSettings`);
   its candidates come from a registry (catalogue entry -> factory of hypotheses):
   :func:`register_rig_candidate` adds a user's own entry without touching the pipeline.
 

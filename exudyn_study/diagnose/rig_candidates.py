@@ -18,8 +18,12 @@ apply). The registration declares
   it the report lists the fitted values.
 
 Every catalogue entry but ``tank_wall_mode`` (a damped resonator inside a tank, in the ``thesis``
-truth: the diagnosis cannot name it yet) has a candidate. The built-ins (``added_mass``, ``modal_damping``,
-``sensor_gain``,
+truth: the diagnosis cannot name it yet) and ``ground_spring_damper`` (the generic local element of
+:func:`generic_local_elements`, the last candidate of a round, stands in for it and for other local
+physics outside the catalogue) has a candidate. The built-ins (``added_mass``, ``modal_damping``,
+``sensor_gain`` and the other sensor faults (``sensor_polarity``, ``sensor_swap``, ``sensor_axis``,
+``sensor_dead``, ``sensor_clipped``, ``sensor_delay``: at the :data:`FAULT_CHANNELS` strongest located
+channels), ``tuned_mass_damper`` (at the :data:`RESONATOR_PLACES` strongest located points),
 ``drive_linkage_compliance``, ``joint_stiffness``, ``bushing_stiffness``,
 ``rear_support_compliance``, ``sloshing``, ``bushing_stiffening``, ``joint_friction``) are registered here
 through :func:`register_rig_candidate`, the same call a user makes for an own catalogue entry
@@ -54,6 +58,7 @@ __all__ = [
     "register_rig_candidate",
     "unregister_rig_candidate",
     "MODAL_DAMPING_MAX_HZ",
+    "FAULT_CHANNELS",
 ]
 
 log = logging.getLogger(__name__)
@@ -63,6 +68,14 @@ log = logging.getLogger(__name__)
 MODAL_DAMPING_MAX_HZ = 200.0
 
 _KINDS = ("linear", "simulated")
+
+#: sensor faults are offered at this many of the strongest located channels (a fault's residual
+#: concentrates in its own channel)
+FAULT_CHANNELS = 8
+#: ... and only where the faulty channels carry at least this share of the training residual: a model far
+#: off leaves large errors at many channels, and zeroing, delaying or swapping one of them must not pass
+#: for an explanation of structural mismatch
+FAULT_MIN_SHARE = 0.25
 
 
 @dataclass
@@ -93,6 +106,17 @@ class CandidateContext:
         Findings already made (do not offer them again).
     say : callable
         Progress text.
+    nonlinear_sensors : list of str
+        Located sensors with a local level-dependent share, strongest first.
+    channels : tuple of str
+        The recorded channels.
+    measured_peak : dict
+        Channel -> largest magnitude in the training recordings (m/s^2).
+    best_places : list of dict
+        The best places of the structure-wide screen, best first (``place``, ``position_m``,
+        ``kind``, ``values``, ``share``).
+    residual_share : dict
+        Channel -> its share of the training residual (squared relative errors summed over channels).
     """
 
     model: object
@@ -108,6 +132,14 @@ class CandidateContext:
     #: sensors where the response has a local nonlinear share (model-free, from two levels of
     #: one drive); empty when unknown: then nonlinear candidates go by ``located``
     nonlinear_sensors: list = field(default_factory=list)
+    #: the recorded channels (the residual's rows)
+    channels: tuple = ()
+    #: channel -> largest magnitude in the training recordings (m/s^2): a clipped channel's level
+    measured_peak: dict = field(default_factory=dict)
+    #: the structure-wide place screen's best places (:func:`~exudyn_study.diagnose.rig_places.screen_places`)
+    best_places: list = field(default_factory=list)
+    #: channel -> its share of the training residual (squared relative errors; empty: unknown)
+    residual_share: dict = field(default_factory=dict)
 
     @staticmethod
     def entry(name: str):
@@ -263,6 +295,59 @@ def _added_mass(ctx: CandidateContext):
                 neutral={"mass_kg": 0.0},
             )
         )
+    out += _at_best_places(ctx, "added_mass", seen)
+    return out
+
+
+#: of the structure-wide screen, this many best places per kind become candidates
+BEST_PLACES = 3
+
+
+def place_map(model, location: str) -> np.ndarray:
+    """Return the displacement map (3, n_q) of a mesh-node place ``'body#node'`` on an assembled model."""
+    from exudyn_study.model.linearisation import body_displacement_map
+
+    body, _, node = location.partition("#")
+    idx, mat = body_displacement_map(model, body, np.array([int(node)]))
+    full = np.zeros((3, int(model.mbs.systemData.ODE2Size())))
+    full[:, idx] = mat
+    return full
+
+
+def _place_where(ctx: CandidateContext, place: str) -> tuple:
+    """Return (component and sensors, displacement map) of a place of the structure screen."""
+    if "#" in place:
+        body = place.partition("#")[0]
+        where = {"component": getattr(ctx.model, "body_components", {}).get(body) or body, "sensors": ()}
+        return where, place_map(ctx.model, place)
+    from exudyn_study.linear.nonlinear import marker_displacement_map
+
+    return {"component": sensor_component(place), "sensors": (place,)}, marker_displacement_map(
+        ctx.model, ctx.markers[place][0]
+    )
+
+
+def _at_best_places(ctx: CandidateContext, kind: str, seen: list, min_distance_m: float = 0.1) -> list:
+    """Hypotheses of ``kind`` at the structure screen's best places away from the points in ``seen``."""
+    from exudyn_study.diagnose.rig_hypotheses import AddedMassHypothesis, GroundElementHypothesis
+
+    out = []
+    for best in [b for b in ctx.best_places if b["kind"] == kind]:
+        if len(out) == BEST_PLACES:
+            break
+        pos = np.asarray(best["position_m"], dtype=float)
+        if any(np.linalg.norm(pos - q) < min_distance_m for q in seen) or (kind, best["place"]) in ctx.done:
+            continue
+        seen.append(pos)
+        where, p_map = _place_where(ctx, best["place"])
+        if kind == "added_mass":
+            h = AddedMassHypothesis(best["place"], ctx.lin, p_map, start=best["values"]["mass_kg"], **where)
+            h.screen_grid = tuple((v,) for v in (1.0, 3.0, 10.0, 30.0))
+        else:
+            h = GroundElementHypothesis(best["place"], ctx.lin, p_map, dict(best["values"]), **where)
+            h.start = np.maximum(h.start, h.upper * 1e-5)
+        h.position_m = [float(v) for v in pos]
+        out.append(h)
     return out
 
 
@@ -971,7 +1056,9 @@ def _explain_drive_linkage(h, v, ctx: ExplainContext) -> str:
 def _explain_bushing_stiffening(h, v, ctx: ExplainContext) -> str:
     if "compression_cubic_stiffness_n_per_m3" in v:
         k3, s3 = v["compression_cubic_stiffness_n_per_m3"]
-        term = "in compression: a cubic term of {} N/m^3 on each quadrant of the pad (its rocking hardens too)"
+        term = (
+            "in compression: a cubic term of {} N/m^3 on each quadrant of the pad (its rocking hardens too)"
+        )
     else:
         k3, s3 = v["cubic_stiffness_n_per_m3"]
         term = "in shear: a cubic term of {} N/m^3 across the pad (z and x)"
@@ -1084,6 +1171,251 @@ def _explain_sensor_gain(h, v, ctx: ExplainContext) -> str:
     )
 
 
+def _fault_channels(ctx: CandidateContext) -> list:
+    """Return the strongest located channels that are recorded (at most :data:`FAULT_CHANNELS`)."""
+    recorded = set(ctx.channels) or set(ctx.sensor_names)
+    return [c for c in ctx.located if c in recorded][:FAULT_CHANNELS]
+
+
+def _carries(ctx: CandidateContext, *channels) -> bool:
+    """Whether ``channels`` together carry :data:`FAULT_MIN_SHARE` of the residual (unknown shares: yes)."""
+    if not ctx.residual_share:
+        return True
+    return sum(ctx.residual_share.get(c, 0.0) for c in channels) >= FAULT_MIN_SHARE
+
+
+def _fault(ctx: CandidateContext, physics: str, location: str, **where):
+    from exudyn_study.diagnose.rig_hypotheses import SensorFaultHypothesis
+
+    parts = location.replace(">", "/").split("/")
+    return SensorFaultHypothesis(
+        physics, location, ctx.lin, component=sensor_component(parts[0]), sensors=tuple(parts), **where
+    )
+
+
+def _sensor_polarity(ctx: CandidateContext):
+    return [
+        _fault(ctx, "sensor_polarity", ch, screen_grid=(0.7, 1.0, 1.4), neutral=None)
+        for ch in _fault_channels(ctx)
+        if ("sensor_polarity", ch) not in ctx.done and _carries(ctx, ch)
+    ]
+
+
+def _sensor_dead(ctx: CandidateContext):
+    chans = _fault_channels(ctx)
+    return [
+        _fault(ctx, "sensor_dead", ch)
+        for ch in chans
+        if ("sensor_dead", ch) not in ctx.done and _carries(ctx, ch)
+    ]
+
+
+def _sensor_swap(ctx: CandidateContext):
+    chans = _fault_channels(ctx)
+    out = []
+    for k, a in enumerate(chans):
+        for b in chans[k + 1 :]:
+            if not _carries(ctx, a, b):
+                continue
+            if ("sensor_swap", f"{a}/{b}") not in ctx.done and ("sensor_swap", f"{b}/{a}") not in ctx.done:
+                out.append(_fault(ctx, "sensor_swap", f"{a}/{b}"))
+    return out
+
+
+def _sensor_axis(ctx: CandidateContext):
+    from exudyn_study.physics.sensor_faults import SAME_POINT_M
+
+    recorded = list(ctx.channels) or list(ctx.sensor_names)
+    sensors = getattr(ctx.model, "sensors", {})
+    out = []
+    for a in _fault_channels(ctx):
+        if a not in sensors or not _carries(ctx, a):
+            continue
+        pa = np.asarray(sensors[a].sensor.position_m, dtype=float)
+        for b in recorded:
+            if b == a or b not in sensors or ("sensor_axis", f"{a}>{b}") in ctx.done:
+                continue
+            if np.linalg.norm(np.asarray(sensors[b].sensor.position_m, dtype=float) - pa) <= SAME_POINT_M:
+                out.append(_fault(ctx, "sensor_axis", f"{a}>{b}"))
+    return out
+
+
+def _sensor_clipped(ctx: CandidateContext):
+    out = []
+    for ch in _fault_channels(ctx):
+        peak = ctx.measured_peak.get(ch)
+        if not peak or ("sensor_clipped", ch) in ctx.done or not _carries(ctx, ch):
+            continue
+        # a clipped channel's level is its largest recorded magnitude
+        start = {"clip_level_m_per_s2": float(np.clip(peak, 0.0101, 0.99e4))}
+        grid = tuple(float(np.clip(f * peak, 0.0101, 0.99e4)) for f in (0.9, 1.0, 1.1))
+        out.append(_fault(ctx, "sensor_clipped", ch, start=start, screen_grid=grid))
+    return out
+
+
+#: screening grid of a channel's delay (s): the residual of a broadband delay has a minimum about
+#: 1 / (2 pi 60 Hz) = 2.7 ms wide, so steps of 1 ms over +-12 ms (a delay beyond is a fault the
+#: recording's own time stamps show)
+DELAY_GRID_S = tuple(float(t) for t in np.round(np.arange(-0.012, 0.0125, 0.001), 4) if abs(t) > 1e-9)
+
+
+def _sensor_delay(ctx: CandidateContext):
+    return [
+        _fault(ctx, "sensor_delay", ch, screen_grid=DELAY_GRID_S)
+        for ch in _fault_channels(ctx)
+        if ("sensor_delay", ch) not in ctx.done and _carries(ctx, ch)
+    ]
+
+
+def point_places(ctx: CandidateContext, n: int, min_distance_m: float = 0.05) -> list:
+    """Return up to ``n`` located sensors at distinct points (strongest first): where a local element goes."""
+    out, seen = [], []
+    for loc in ctx.located:
+        if loc not in ctx.markers:
+            continue
+        pos = np.asarray(ctx.markers[loc][1], dtype=float)
+        if any(np.linalg.norm(pos - q) < min_distance_m for q in seen):
+            continue
+        seen.append(pos)
+        out.append(loc)
+        if len(out) == n:
+            break
+    return out
+
+
+#: tuned mass-dampers are offered at this many of the strongest located points
+RESONATOR_PLACES = 3
+
+
+def _band_modes_hz(lin, lo: float = 3.0, hi: float = 60.0) -> list:
+    import scipy.linalg as sla
+
+    w2 = sla.eigh(lin.stiffness, lin.mass, eigvals_only=True)
+    f = np.sqrt(np.maximum(w2, 0.0)) / (2.0 * np.pi)
+    return [float(v) for v in f if lo <= v <= hi]
+
+
+def _tuned_mass_damper(ctx: CandidateContext):
+    """Tuned mass-dampers at the strongest located points.
+
+    The screening grid tunes it to each mode of the current model in the band (it splits that mode)
+    and between two.
+    """
+    from exudyn_study.diagnose.rig_hypotheses import PointResonatorHypothesis
+    from exudyn_study.linear.nonlinear import marker_displacement_map
+
+    modes = _band_modes_hz(ctx.lin)
+    tunings = sorted(set(modes) | {0.5 * (a + b) for a, b in zip(modes, modes[1:], strict=False)})
+    grid = tuple((m, f, 0.08) for f in tunings for m in (2.0, 8.0))
+    out, seen = [], []
+    for loc in point_places(ctx, RESONATOR_PLACES) if modes else []:
+        if ("tuned_mass_damper", loc) in ctx.done:
+            continue
+        pos = np.asarray(ctx.markers[loc][1], dtype=float)
+        seen.append(pos)
+        start = {"mass_kg": 5.0, "frequency_hz": modes[0], "damping_ratio": 0.08}
+        p_map = marker_displacement_map(ctx.model, ctx.markers[loc][0])
+        h = PointResonatorHypothesis(
+            loc, ctx.lin, p_map, start, component=sensor_component(loc), sensors=(loc,), screen_grid=grid
+        )
+        out.append(h)
+    return out
+
+
+def _explain_tuned_mass_damper(h, v, ctx: ExplainContext) -> str:
+    m, sm = v["mass_kg"]
+    f, sf = v["frequency_hz"]
+    z, sz = v["damping_ratio"]
+    return (
+        f"A local resonance of {m:.3g} +- {sm:.2g} kg at {f:.3g} +- {sf:.2g} Hz, "
+        f"{100 * z:.1f} +- {100 * sz:.1f} % damped, at {h.location}: a tuned mass-damper (or a part acting "
+        "as one) the model lacks"
+        + (f"; modes moved {ctx.shifts}" if ctx.shifts else "")
+        + (f"; new modes at {', '.join(f'{x:.1f}' for x in ctx.new_modes_hz)} Hz" if ctx.new_modes_hz else "")
+        + "."
+    )
+
+
+def generic_local_elements(ctx: CandidateContext, n_places: int = 6) -> list:
+    """Return the generic local element (a dynamic stiffness to ground) at the strongest located points.
+
+    The last candidate of a round: tried when no catalogue candidate explains the mismatch. Its
+    finding is reported as outside the catalogue (physics ``'local_element'``).
+    """
+    from exudyn_study.diagnose.rig_hypotheses import GroundElementHypothesis
+    from exudyn_study.linear.nonlinear import marker_displacement_map
+
+    grid = tuple((k, c) for k in (1e4, 1e6) for c in (30.0, 1e3, 3e4))
+    out = []
+    seen = [np.asarray(ctx.markers[loc][1], dtype=float) for loc in point_places(ctx, n_places)]
+    for h in _at_best_places(ctx, "local_element", list(seen)):
+        h.screen_grid = grid
+        out.append(h)
+    for loc in point_places(ctx, n_places):
+        if ("local_element", loc) in ctx.done or ("ground_spring_damper", loc) in ctx.done:
+            continue
+        out.append(
+            GroundElementHypothesis(
+                loc,
+                ctx.lin,
+                marker_displacement_map(ctx.model, ctx.markers[loc][0]),
+                {"stiffness_n_per_m": 1e4, "damping_n_s_per_m": 1e3},
+                component=sensor_component(loc),
+                sensors=(loc,),
+                screen_grid=grid,
+            )
+        )
+    return out
+
+
+def _explain_sensor_polarity(h, v, ctx: ExplainContext) -> str:
+    g, s = v["gain"]
+    return (
+        f"Channel {h.location} reads {-g:.3f} +- {s:.2g} times what the model gives there, at all "
+        "frequencies: the sensor is mounted the wrong way round (or its cable's polarity is reversed); "
+        "a sensor fault, not the structure."
+    )
+
+
+def _explain_sensor_swap(h, v, ctx: ExplainContext) -> str:
+    a, b = h.location.split("/")
+    return (
+        f"Channels {a} and {b} each match the model's response of the other: their cables (or channel-table "
+        "entries) are swapped; a sensor fault, not the structure."
+    )
+
+
+def _explain_sensor_axis(h, v, ctx: ExplainContext) -> str:
+    a, b = h.location.split(">")
+    return (
+        f"Channel {a} matches the model's response along the axis of {b} at the same point: the sensor is "
+        "mounted rotated (measuring the wrong axis); a sensor fault, not the structure."
+    )
+
+
+def _explain_sensor_dead(h, v, ctx: ExplainContext) -> str:
+    return (
+        f"Channel {h.location} records only noise where the model responds: the channel is dead (broken "
+        "cable, unpowered sensor); a sensor fault, not the structure."
+    )
+
+
+def _explain_sensor_clipped(h, v, ctx: ExplainContext) -> str:
+    c, s = v["clip_level_m_per_s2"]
+    return (
+        f"Channel {h.location} saturates at {c:.3g} +- {s:.2g} m/s^2 (flat tops): its input range is set too "
+        "low; a sensor fault, not the structure."
+    )
+
+
+def _explain_sensor_delay(h, v, ctx: ExplainContext) -> str:
+    t, s = v["delay_s"]
+    return (
+        f"Channel {h.location} is recorded {1e3 * t:+.2f} +- {1e3 * s:.2f} ms late against the others (its "
+        "phase falls linearly with frequency): a sensor fault (or the acquisition's), not the structure."
+    )
+
+
 register_rig_candidate(
     "added_mass",
     _added_mass,
@@ -1152,4 +1484,19 @@ register_rig_candidate(
     description="micro-slip (Jenkins elements) in the contact plane of a Model-3 component joint "
     "(softening and damping growing with level; simulated in time)",
     explain=_explain_joint_friction,
+)
+for _physics, _factory, _explain, _what in (
+    ("sensor_polarity", _sensor_polarity, _explain_sensor_polarity, "one located sensor mounted upside down"),
+    ("sensor_swap", _sensor_swap, _explain_sensor_swap, "two located channels swapped"),
+    ("sensor_axis", _sensor_axis, _explain_sensor_axis, "a located sensor on another axis"),
+    ("sensor_dead", _sensor_dead, _explain_sensor_dead, "a located channel dead"),
+    ("sensor_clipped", _sensor_clipped, _explain_sensor_clipped, "a located channel saturating"),
+    ("sensor_delay", _sensor_delay, _explain_sensor_delay, "a located channel recorded late or early"),
+):
+    register_rig_candidate(_physics, _factory, description=_what, explain=_explain)
+register_rig_candidate(
+    "tuned_mass_damper",
+    _tuned_mass_damper,
+    description="a mass on a spring-damper at the strongest located points (mass, tuning, damping)",
+    explain=_explain_tuned_mass_damper,
 )

@@ -1,5 +1,9 @@
 """Compare a rig model with recordings: residuals, their significance, error metrics.
 
+The first stage of :func:`~exudyn_study.diagnose.rig.diagnose_rig` is :func:`compare` (a model
+against all recordings: a :class:`~exudyn_study.diagnose.rig_state.Comparison`); the functions
+below it are its numerics.
+
 A recording's drive channel (the controller's piston displacement, 204.8 Hz) drives the
 model (:func:`~exudyn_study.simulate.simulate_linear`, exact); the residual is
 ``e = a_measured - a_simulated`` per channel.
@@ -39,6 +43,8 @@ __all__ = [
     "summary_error",
     "DriveSpectra",
     "drive_spectra",
+    "compare",
+    "Comparison",
 ]
 
 RATE_HZ = 1000.0
@@ -256,3 +262,54 @@ def significance_map(
         eff[:, j] = np.sqrt(coherent[:, b].sum(axis=1) / np.maximum(syy[:, b].sum(axis=1), 1e-300))
     sig = (z > z_thr) & (eff > min_effect)
     return SignificanceMap(rec.channels, BANDS_HZ, z, eff, sig, n_d, z_thr)
+
+
+@dataclass(frozen=True)
+class Comparison:
+    """The current model against the recordings.
+
+    Attributes
+    ----------
+    sims_tr, sims_ho : list of numpy.ndarray
+        Exact simulations at the training and held-out recordings' channels, each (n_channels, n_samples).
+    maps : list of SignificanceMap
+        Per recording (training, then held out): residual significance per channel x band.
+    significant : numpy.ndarray of bool
+        (n_channels, n_bands): significant in any recording.
+    """
+
+    sims_tr: list
+    sims_ho: list
+    maps: list
+    significant: np.ndarray
+
+
+def compare(problem, system, gains):
+    """Compare ``system`` (with output ``gains``) with the training and held-out recordings.
+
+    Parameters
+    ----------
+    problem : RigProblem
+        The recordings, their exact evaluators and the significance settings
+        (:class:`~exudyn_study.diagnose.rig_state.RigProblem`).
+    system : LinearSystem or NonlinearSystem
+        The model.
+    gains : numpy.ndarray or None
+        Output gain per channel (None: all one).
+
+    Returns
+    -------
+    Comparison
+        Exact simulations, the significance map per recording and the cells significant in any.
+    """
+    st = problem.settings
+    sims_tr = problem.ev_train.simulate_exact(system, gains)
+    sims_ho = problem.ev_hold.simulate_exact(system, gains)
+    maps = [
+        significance_map(r, s_, min_effect=st.min_effect, p_value=problem.p_cell)
+        for r, s_ in zip(problem.train_recs + problem.hold_recs, sims_tr + sims_ho, strict=True)
+    ]
+    sig = np.zeros((len(problem.channels), len(BANDS_HZ)), dtype=bool)
+    for m in maps:
+        sig |= m.significant
+    return Comparison(sims_tr, sims_ho, maps, sig)

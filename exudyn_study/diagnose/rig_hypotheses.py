@@ -13,7 +13,14 @@ every ``p`` (``q = r u + N^T z`` is exact for any admissible ``r``):
 - :class:`AddedMassHypothesis`: ``M(p) = M0 + m P^T P`` with ``P`` the location's marker
   displacement map on the nominal model (no build at all);
 - :class:`ModalDampingHypothesis`: ``C(p) = C0 + (factor - 1) C_body`` (the body's block);
+- :class:`PointResonatorHypothesis`: a mass on a spring-damper at a point (``tuned_mass_damper``):
+  three coordinates appended to the nominal ones (no build at all);
+- :class:`GroundElementHypothesis`: a spring-damper from a point to ground, ``K0 + k P^T P``,
+  ``C0 + c P^T P`` (the generic local element, carried as ``ground_spring_damper``);
 - :class:`SensorGainHypothesis`: the nominal system, one channel scaled;
+- :class:`SensorFaultHypothesis`: the nominal system, one acquisition fault on its channels
+  (:class:`~exudyn_study.physics.sensor_faults.SensorFault`: polarity, swap, wrong axis, dead,
+  clipped, delayed), carried as an :class:`OutputChain`;
 - :class:`SloshingHypothesis`: the ``sloshing`` entry at a fixed slosh frequency, exact in its
   mass, damping ratio and lateral damping factor (four builds);
 - :class:`ConnectorHypothesis`: an entry that adds or changes one connector (a joint's
@@ -45,8 +52,14 @@ __all__ = [
     "CompositeHypothesis",
     "AffineHypothesis",
     "AddedMassHypothesis",
+    "PointResonatorHypothesis",
+    "GroundElementHypothesis",
     "ModalDampingHypothesis",
     "SensorGainHypothesis",
+    "SensorFaultHypothesis",
+    "OutputChain",
+    "apply_output",
+    "apply_output_frf",
     "SloshingHypothesis",
     "project",
 ]
@@ -151,12 +164,13 @@ class Hypothesis:
         """Return the fitted parameter vector from entry values (the inverse of :meth:`entry_values`)."""
         return np.array([float(values[n]) for n in self.names])
 
-    def gains(self, p, channels) -> np.ndarray | None:
-        """Output gain per channel (None: all 1)."""
+    def gains(self, p, channels) -> np.ndarray | OutputChain | None:
+        """Output gain per channel, or an :class:`OutputChain` of acquisition faults (None: all 1)."""
         return None
 
     @property
     def label(self) -> str:
+        """``physics@location``."""
         return f"{self.physics}@{self.location}"
 
 
@@ -238,6 +252,7 @@ class AffineHypothesis(Hypothesis):
             self.d_k.append((other.full_stiffness - self.base.full_stiffness) / s)
 
     def system(self, p):
+        """Return the candidate's linear system at parameters ``p``."""
         dp = np.asarray(p, dtype=float) - self.p0
         m, c, k = self.base.full_mass.copy(), self.base.full_damping.copy(), self.base.full_stiffness.copy()
         for i, v in enumerate(dp):
@@ -344,10 +359,101 @@ class AddedMassHypothesis(Hypothesis):
         self.ptp = displacement_map.T @ displacement_map
 
     def system(self, p):
+        """Return the candidate's linear system at parameters ``p``."""
         return project(
             self.nominal.full_mass + float(p[0]) * self.ptp,
             self.nominal.full_damping,
             self.nominal.full_stiffness,
+            self.nominal,
+        )
+
+
+class PointResonatorHypothesis(Hypothesis):
+    """A mass ``m`` on an isotropic spring-damper (``k = m (2 pi f)^2``, ``c = 2 zeta m 2 pi f``) at a point.
+
+    The resonator's three coordinates ``s`` are appended to the nominal ones: ``M = diag(M0, m I)``,
+    ``K = K0 + k [P^T P, -P^T; -P, I]`` (``C`` alike), ``P`` the point's displacement map; the null
+    space gets an identity block (the resonator is free) and the drive shape ``s = P r`` (statically
+    the mass follows the point). Parameters are the ``tuned_mass_damper`` entry's.
+    """
+
+    def __init__(self, location, nominal: LinearSystem, displacement_map: np.ndarray, start: dict, **where):
+        from exudyn_study.physics.catalogue import entry
+
+        e = entry("tuned_mass_damper")
+        super().__init__("tuned_mass_damper", location, *_entry_fields(e, start), **where)
+        n_q = nominal.full_mass.shape[0]
+        p_map = np.asarray(displacement_map, dtype=float)
+        self.couple = np.block([[p_map.T @ p_map, -p_map.T], [-p_map, np.eye(3)]])
+        self.mass_block = np.zeros((n_q + 3, n_q + 3))
+        self.mass_block[n_q:, n_q:] = np.eye(3)
+        null = nominal.nullspace
+        grow = np.zeros((null.shape[0] + 3, n_q + 3))
+        grow[: null.shape[0], :n_q] = null
+        grow[null.shape[0] :, n_q:] = np.eye(3)
+        self.base = LinearSystem(
+            mass=nominal.mass,
+            damping=nominal.damping,
+            stiffness=nominal.stiffness,
+            nullspace=grow,
+            drive_shape=np.concatenate([nominal.drive_shape, p_map @ nominal.drive_shape]),
+            b0=nominal.b0,
+            b1=nominal.b1,
+            b2=nominal.b2,
+            sensor_map=np.hstack([nominal.sensor_map, np.zeros((nominal.sensor_map.shape[0], 3))]),
+            sensor_names=nominal.sensor_names,
+            metadata=nominal.metadata,
+            full_mass=np.pad(nominal.full_mass, ((0, 3), (0, 3))),
+            full_damping=np.pad(nominal.full_damping, ((0, 3), (0, 3))),
+            full_stiffness=np.pad(nominal.full_stiffness, ((0, 3), (0, 3))),
+        )
+
+    def system(self, p):
+        """Return the system with the resonator at ``p`` = (mass_kg, frequency_hz, damping_ratio)."""
+        m, f, zeta = (float(v) for v in p)
+        omega = 2.0 * np.pi * f
+        b = self.base
+        return project(
+            b.full_mass + m * self.mass_block,
+            b.full_damping + 2.0 * zeta * m * omega * self.couple,
+            b.full_stiffness + m * omega**2 * self.couple,
+            b,
+        )
+
+
+class GroundElementHypothesis(Hypothesis):
+    """A local dynamic stiffness to ground at a point: ``K0 + k P^T P``, ``C0 + c P^T P`` (isotropic).
+
+    The diagnosis's generic local element (physics ``'local_element'``), carried into the model as
+    the ``ground_spring_damper`` entry.
+    """
+
+    def __init__(self, location, nominal: LinearSystem, displacement_map: np.ndarray, start: dict, **where):
+        from exudyn_study.physics.catalogue import entry
+
+        super().__init__(
+            "local_element",
+            location,
+            *_entry_fields(entry("ground_spring_damper"), start),
+            may_vanish=("stiffness_n_per_m", "damping_n_s_per_m"),
+            **where,
+        )
+        self.nominal = nominal
+        p_map = np.asarray(displacement_map, dtype=float)
+        self.ptp = p_map.T @ p_map
+
+    def carried(self, p) -> tuple:
+        """Return the ``ground_spring_damper`` entry at this place with the fitted values."""
+        values = {n: float(v) for n, v in zip(self.names, p, strict=True)}
+        return "ground_spring_damper", self.apply_location or self.location, values
+
+    def system(self, p):
+        """Return the nominal system with the spring-damper to ground at ``p`` = (k, c)."""
+        k, c = (float(v) for v in p)
+        return project(
+            self.nominal.full_mass,
+            self.nominal.full_damping + c * self.ptp,
+            self.nominal.full_stiffness + k * self.ptp,
             self.nominal,
         )
 
@@ -375,6 +481,7 @@ class ModalDampingHypothesis(Hypothesis):
         self.c_body = c_body
 
     def system(self, p):
+        """Return the candidate's linear system at parameters ``p``."""
         return project(
             self.nominal.full_mass,
             self.nominal.full_damping + (float(p[0]) - 1.0) * self.c_body,
@@ -400,17 +507,117 @@ class SensorGainHypothesis(Hypothesis):
         self.nominal = nominal
 
     def system(self, p):
+        """Return the nominal system (a gain changes only the recorded channel)."""
         return self.nominal
 
     def gains(self, p, channels):
+        """Return the output gain per channel: ``p[0]`` at the hypothesis's channel, one elsewhere."""
         g = np.ones(len(channels))
         g[list(channels).index(self.location)] = float(p[0])
         return g
 
 
+@dataclass(frozen=True)
+class OutputChain:
+    """What the acquisition does to the simulated channels: stages applied in order.
+
+    A stage is an output gain per channel (an array, shape (n_channels,)) or a
+    :class:`~exudyn_study.physics.sensor_faults.SensorFault`.
+    """
+
+    stages: tuple = ()
+
+    @staticmethod
+    def of(g) -> OutputChain:
+        """Return ``g`` (a gain vector, a chain or None) as a chain."""
+        if g is None:
+            return OutputChain()
+        return g if isinstance(g, OutputChain) else OutputChain((np.asarray(g, dtype=float),))
+
+    def then(self, g) -> OutputChain:
+        """Return this chain followed by ``g`` (a gain vector, a chain or None)."""
+        return OutputChain(self.stages + OutputChain.of(g).stages)
+
+    def apply(self, y: np.ndarray, channels, rate_hz: float) -> np.ndarray:
+        """Return the channels ``y`` (n_channels, n_samples; rows ``channels``) through the chain."""
+        for stage in self.stages:
+            y = y * stage[:, None] if isinstance(stage, np.ndarray) else stage.apply(y, channels, rate_hz)
+        return y
+
+    def apply_frf(self, h: np.ndarray, channels, freq_hz) -> np.ndarray:
+        """Return the FRFs ``h`` (n_channels, n_freq) through the chain's linear stages."""
+        for stage in self.stages:
+            h = h * stage[:, None] if isinstance(stage, np.ndarray) else stage.apply_frf(h, channels, freq_hz)
+        return h
+
+
+def apply_output(y: np.ndarray, gains, channels, rate_hz: float) -> np.ndarray:
+    """Return the simulated channels ``y`` (n_channels, n_samples) with output ``gains`` (vector or chain)."""
+    if gains is None:
+        return y
+    if isinstance(gains, OutputChain):
+        return gains.apply(y, channels, rate_hz)
+    return y * gains[:, None]
+
+
+def apply_output_frf(h: np.ndarray, gains, channels, freq_hz) -> np.ndarray:
+    """Return the FRFs ``h`` (n_channels, n_freq) with output ``gains`` (vector or chain)."""
+    if gains is None:
+        return h
+    if isinstance(gains, OutputChain):
+        return gains.apply_frf(h, channels, freq_hz)
+    return h * gains[:, None]
+
+
+class SensorFaultHypothesis(Hypothesis):
+    """An acquisition fault of catalogue entry ``physics`` (``sensor_polarity``, ``sensor_swap``, ...).
+
+    ``location`` is the entry's: a channel, ``'A/B'`` (swap) or ``'A>B'`` (wrong axis). The system
+    is ``nominal``; the fault acts on the simulated channels (:meth:`gains`).
+    """
+
+    def __init__(
+        self, physics: str, location: str, nominal: LinearSystem, start: dict | None = None, **where
+    ):
+        from exudyn_study.physics.catalogue import entry
+        from exudyn_study.physics.sensor_faults import FAULT_KINDS
+
+        kinds = {v: k for k, v in FAULT_KINDS.items()}
+        e = entry(physics)
+        params = e.parameters
+        start = start or {}
+        super().__init__(
+            physics,
+            location,
+            tuple(p.name for p in params),
+            tuple(p.unit for p in params),
+            np.array([p.lower for p in params], dtype=float),
+            np.array([p.upper for p in params], dtype=float),
+            np.array([float(start.get(p.name, p.default)) for p in params], dtype=float),
+            carry="gains",
+            **where,
+        )
+        self.kind = kinds[physics]
+        sep = "/" if self.kind == "swap" else ">" if self.kind == "axis" else None
+        self.channel, self.other = location.split(sep) if sep else (location, None)
+        self.nominal = nominal
+
+    def system(self, p):
+        """Return the nominal system (a fault changes only the recorded channels)."""
+        return self.nominal
+
+    def gains(self, p, channels):
+        """Return the fault at ``p`` as an :class:`OutputChain`."""
+        from exudyn_study.physics.sensor_faults import SensorFault
+
+        value = float(p[0]) if len(self.names) else 1.0
+        return OutputChain((SensorFault(self.kind, self.channel, self.other, value),))
+
+
 def log_bounds(h: Hypothesis):
-    """Bounds in the fitting variable: log for non-negative parameters (a zero lower bound
-    becomes ``upper * 1e-6``), linear otherwise.
+    """Return bounds in the fitting variable: log for non-negative parameters, linear otherwise.
+
+    A zero lower bound becomes ``upper * 1e-6``.
     """
     pos = (h.lower >= 0) & (h.upper > 0)
     lower = np.where(pos & (h.lower <= 0), h.upper * 1e-6, h.lower)

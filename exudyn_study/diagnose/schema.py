@@ -11,6 +11,7 @@ Both the chassis path (:mod:`exudyn_study.diagnose.rig`) and the generic path
         {
           "physics": "joint_friction",      # catalogue / candidate name
           "location": {"sensors": ["A2", "B1"], "component": null, "interface": "A2-B1"},
+                                            # optional: "position_m": [x, y, z], "nearest_sensor"
           "band_hz": [8.0, 70.0],
           "level_dependent": true,
           "explanation": "plain language ...",
@@ -53,14 +54,19 @@ FORMAT_VERSION = 1
 FIT_KEYS = ("train_before", "train_after", "holdout_before", "holdout_after", "metric")
 #: keys of a location
 LOCATION_KEYS = ("sensors", "component", "interface")
+#: optional keys of a location: the place in global coordinates (m) and the sensor nearest to it
+LOCATION_OPTIONAL = ("position_m", "nearest_sensor")
 
 
 def _location(loc, who: str) -> dict:
     if not isinstance(loc, Mapping):
         raise InputError(f"{who}: location {loc!r}; expected a mapping with keys {list(LOCATION_KEYS)}")
-    unknown = sorted(set(loc) - set(LOCATION_KEYS))
+    unknown = sorted(set(loc) - set(LOCATION_KEYS) - set(LOCATION_OPTIONAL))
     if unknown:
-        raise InputError(f"{who}: location has unknown keys {unknown}; expected {list(LOCATION_KEYS)}")
+        raise InputError(
+            f"{who}: location has unknown keys {unknown}; expected {list(LOCATION_KEYS)} "
+            f"(optional {list(LOCATION_OPTIONAL)})"
+        )
     sensors = loc.get("sensors") or []
     if isinstance(sensors, str) or not all(isinstance(s, str) for s in sensors):
         raise InputError(f"{who}: location sensors {sensors!r}; expected a list of sensor names")
@@ -70,6 +76,18 @@ def _location(loc, who: str) -> dict:
         if v is not None and not isinstance(v, str):
             raise InputError(f"{who}: location {key} {v!r}; expected a string or null")
         out[key] = v
+    if loc.get("position_m") is not None:
+        try:
+            pos = [float(v) for v in loc["position_m"]]
+        except (TypeError, ValueError):
+            pos = []
+        if len(pos) != 3 or not all(math.isfinite(v) for v in pos):
+            raise InputError(f"{who}: location position_m {loc['position_m']!r}; expected [x, y, z] in m")
+        out["position_m"] = pos
+    if loc.get("nearest_sensor") is not None:
+        if not isinstance(loc["nearest_sensor"], str):
+            raise InputError(f"{who}: location nearest_sensor {loc['nearest_sensor']!r}; expected a name")
+        out["nearest_sensor"] = loc["nearest_sensor"]
     return out
 
 

@@ -9,8 +9,9 @@ and the diagnosis (hypotheses) use the same catalogue; users can :func:`register
 >>> from exudyn_study.physics import entry, CATALOGUE
 >>> sorted(CATALOGUE)  # doctest: +NORMALIZE_WHITESPACE
 ['added_mass', 'bushing_stiffening', 'bushing_stiffness', 'drive_linkage_compliance',
- 'joint_friction', 'joint_stiffness', 'modal_damping', 'rear_support_compliance', 'sensor_gain',
- 'sloshing', 'tank_wall_mode']
+ 'ground_spring_damper', 'joint_friction', 'joint_stiffness', 'modal_damping', 'rear_support_compliance',
+ 'sensor_axis', 'sensor_clipped', 'sensor_dead', 'sensor_delay', 'sensor_gain', 'sensor_polarity',
+ 'sensor_swap', 'sloshing', 'tank_wall_mode', 'tuned_mass_damper']
 >>> entry("added_mass").parameter("mass_kg").unit
 'kg'
 """
@@ -25,7 +26,13 @@ from exudyn_study.physics.catalogue import (
     register,
     unregister,
 )
-from exudyn_study.physics.entries import ADDED_MASS, DRIVE_LINKAGE_COMPLIANCE, REAR_SUPPORT_COMPLIANCE
+from exudyn_study.physics.entries import (
+    ADDED_MASS,
+    DRIVE_LINKAGE_COMPLIANCE,
+    GROUND_SPRING_DAMPER,
+    REAR_SUPPORT_COMPLIANCE,
+    TUNED_MASS_DAMPER,
+)
 from exudyn_study.physics.entries_more import (
     BUSHING_STIFFENING,
     JOINT_FRICTION,
@@ -35,6 +42,15 @@ from exudyn_study.physics.entries_more import (
     SLOSHING,
 )
 from exudyn_study.physics.entries_structure import BUSHING_STIFFNESS
+from exudyn_study.physics.sensor_faults import (
+    SENSOR_AXIS,
+    SENSOR_CLIPPED,
+    SENSOR_DEAD,
+    SENSOR_DELAY,
+    SENSOR_POLARITY,
+    SENSOR_SWAP,
+    SensorFault,
+)
 
 __all__ = [
     "CATALOGUE",
@@ -48,6 +64,8 @@ __all__ = [
     "ADDED_MASS",
     "DRIVE_LINKAGE_COMPLIANCE",
     "REAR_SUPPORT_COMPLIANCE",
+    "TUNED_MASS_DAMPER",
+    "GROUND_SPRING_DAMPER",
     "JOINT_STIFFNESS",
     "JOINT_FRICTION",
     "BUSHING_STIFFENING",
@@ -55,4 +73,11 @@ __all__ = [
     "MODAL_DAMPING",
     "SENSOR_GAIN",
     "BUSHING_STIFFNESS",
+    "SENSOR_POLARITY",
+    "SENSOR_SWAP",
+    "SENSOR_AXIS",
+    "SENSOR_DEAD",
+    "SENSOR_CLIPPED",
+    "SENSOR_DELAY",
+    "SensorFault",
 ]

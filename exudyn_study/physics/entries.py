@@ -5,7 +5,9 @@
   the thesis's unexplained ~28 Hz resonance of the connection between cylinder and
   chassis (Section 7.1);
 - ``rear_support_compliance``: the frame's rear attachment on the rear foundation is
-  compliant (spring-dampers instead of the rigid spherical joint: z, optionally x and y).
+  compliant (spring-dampers instead of the rigid spherical joint: z, optionally x and y);
+- ``tuned_mass_damper``: a mass on a spring-damper at a sensor node or an interface patch;
+- ``ground_spring_damper``: a spring-damper from a sensor node or an interface patch to ground.
 """
 
 from __future__ import annotations
@@ -15,10 +17,26 @@ import numpy as np
 from exudyn_study.errors import InputError
 from exudyn_study.physics.catalogue import Parameter, PhysicsEntry, register
 
-__all__ = ["ADDED_MASS", "DRIVE_LINKAGE_COMPLIANCE", "REAR_SUPPORT_COMPLIANCE", "location_point"]
+__all__ = [
+    "ADDED_MASS",
+    "DRIVE_LINKAGE_COMPLIANCE",
+    "REAR_SUPPORT_COMPLIANCE",
+    "TUNED_MASS_DAMPER",
+    "GROUND_SPRING_DAMPER",
+    "location_point",
+]
 
-_EXPECTED = ("a sensor name of the model (e.g. 'ARFVZ') or an interface 'body.interface' "
-             "(e.g. 'chassis.front_strut')")
+_EXPECTED = ("a sensor name of the model (e.g. 'ARFVZ'), an interface 'body.interface' "
+             "(e.g. 'chassis.front_strut') or a mesh node 'body#node' (e.g. 'chassis#1234')")
+
+
+def _mesh_node(model, location: str):
+    """(body, node) of a location ``'body#node'`` naming a mesh node of a flexible body, else None."""
+    body, sep, node = location.partition("#")
+    if not sep or body not in model.bodies or not node.isdigit():
+        return None
+    n_nodes = len(model.bodies[body].body.node_positions_m)
+    return (body, int(node)) if int(node) < n_nodes else None
 
 
 def _find_interface(model, location: str):
@@ -35,6 +53,8 @@ def _check_point_location(model, location) -> str:
         key = _find_interface(model, location)
         if key is not None:
             return key
+        if _mesh_node(model, location) is not None:
+            return location
     raise InputError(f"location {location!r}: expected {_EXPECTED}; this model has sensors "
                      f"{list(model.sensors)} "
                      f"and interfaces {sorted(model.interfaces)}")
@@ -47,7 +67,8 @@ def location_point(model, location: str) -> tuple[int, np.ndarray]:
     ----------
     model : exudyn_study.model.Model
     location : str
-        A sensor name (its mesh node) or an interface key ``'body.interface'``.
+        A sensor name (its mesh node), an interface key ``'body.interface'`` or a mesh node
+        ``'body#node'``.
 
     Returns
     -------
@@ -61,6 +82,14 @@ def location_point(model, location: str) -> tuple[int, np.ndarray]:
         handle = model.bodies[att.body]
         local = handle.__dict__.get("mesh_node_map", {}).get(att.node, att.node)
         pos = np.asarray(handle.body.node_positions_m[att.node], dtype=float) + np.asarray(handle.position_m)
+        return handle.node_marker(model.mbs, int(local)), pos
+    node = _mesh_node(model, location)
+    if node is not None:
+        from exudyn_study.physics.mesh import exudyn_mesh_nodes
+
+        handle = model.bodies[node[0]]
+        local = exudyn_mesh_nodes(model, node[0], [node[1]])[0]  # added to a body built with only the used
+        pos = np.asarray(handle.body.node_positions_m[node[1]], dtype=float) + np.asarray(handle.position_m)
         return handle.node_marker(model.mbs, int(local)), pos
     itf = model.interfaces[location]
     return itf.marker, np.asarray(itf.position_m, dtype=float)
@@ -106,6 +135,101 @@ the squared motion of the location.
 """,
     parameters=(Parameter("mass_kg", "kg", 0.01, 500.0, 5.0, "the added point mass"),),
     add_items=_add_mass,
+    locations=_EXPECTED,
+    check_location=_check_point_location,
+))
+
+
+
+def _add_tuned_mass_damper(model, location: str, params: dict) -> dict:
+    import exudyn.itemInterface as eii
+
+    mbs = model.mbs
+    marker, pos = location_point(model, location)
+    tag = f"tuned_mass_damper:{location}"
+    m = params["mass_kg"]
+    omega = 2.0 * np.pi * params["frequency_hz"]
+    k, c = m * omega**2, 2.0 * params["damping_ratio"] * m * omega
+    node, obj, m_mass = _mass_point(mbs, tag, pos, m)
+    spring = mbs.AddObject(eii.ObjectConnectorCartesianSpringDamper(
+        name=f"{tag}:spring", markerNumbers=[marker, m_mass], stiffness=[k, k, k], damping=[c, c, c],
+        visualization=eii.VObjectConnectorCartesianSpringDamper(show=False)))
+    return {
+        "node": node, "mass_point": obj, "marker": m_mass, "spring": int(spring), "body_marker": int(marker)
+    }
+
+
+TUNED_MASS_DAMPER = register(PhysicsEntry(
+    name="tuned_mass_damper",
+    doc="""A tuned mass-damper: a point mass on a spring-damper at a sensor node or an interface patch.
+
+Physics: a device (or a part that acts as one: a loosely held battery, a tool box, a cable drum
+on a soft bracket) of mass ``mass_kg`` joined to the structure by a spring and a viscous damper,
+the same in all three translations, tuned to ``frequency_hz`` (``k = m (2 pi f)^2``) with damping
+ratio ``damping_ratio`` (``c = 2 zeta m 2 pi f``) on a rigid support. The mass is added (the
+structure keeps its own): below the tuning frequency it follows the structure, so the drive moves
+the nominal mass plus ``mass_kg``.
+
+Signature: a structural mode near the tuning frequency that moves the location splits into two
+(Den Hartog): with the mode's mass-normalised motion ``phi`` at the location and the mass ratio
+``mu = m |phi|^2``, a tuned absorber on that mode alone gives
+``f_1,2^2 = f^2 (1 + mu / 2 -+ sqrt(mu + mu^2 / 4))``, so ``f_1 f_2 = f^2`` and
+``f_2 - f_1 ~ f sqrt(mu)``; the FRF at the location gets an antiresonance at the tuning frequency
+between the two peaks (damped: one flattened peak). Across the mode's motion at the location the
+absorber's two other directions stay modes at the tuning frequency that the structure hardly
+feels. Modes well below the tuning frequency drop as
+for an added mass (Rayleigh: ``df / f = -m |phi|^2 / 2``), modes well above rise slightly (the mass
+no longer follows); with damping, the modes near the tuning frequency gain damping.
+""",
+    parameters=(
+        Parameter("mass_kg", "kg", 0.1, 200.0, 5.0, "the damper's moving mass"),
+        Parameter("frequency_hz", "Hz", 1.0, 200.0, 20.0, "tuning frequency on a rigid support"),
+        Parameter("damping_ratio", "1", 0.0, 1.0, 0.05, "damping ratio on a rigid support"),
+    ),
+    add_items=_add_tuned_mass_damper,
+    locations=_EXPECTED,
+    check_location=_check_point_location,
+))
+
+
+
+def _add_ground_spring_damper(model, location: str, params: dict) -> dict:
+    import exudyn.itemInterface as eii
+
+    mbs = model.mbs
+    marker, pos = location_point(model, location)
+    tag = f"ground_spring_damper:{location}"
+    ground = mbs.AddObject(eii.ObjectGround(name=f"{tag}:ground", referencePosition=[float(v) for v in pos],
+                                            visualization=eii.VObjectGround(show=False)))
+    m_ground = mbs.AddMarker(eii.MarkerBodyPosition(bodyNumber=ground, localPosition=[0.0, 0.0, 0.0]))
+    k, c = params["stiffness_n_per_m"], params["damping_n_s_per_m"]
+    spring = mbs.AddObject(eii.ObjectConnectorCartesianSpringDamper(
+        name=f"{tag}:spring", markerNumbers=[m_ground, marker], stiffness=[k, k, k], damping=[c, c, c],
+        visualization=eii.VObjectConnectorCartesianSpringDamper(show=False)))
+    return {"ground": int(ground), "ground_marker": int(m_ground), "spring": int(spring),
+            "body_marker": int(marker)}
+
+
+GROUND_SPRING_DAMPER = register(PhysicsEntry(
+    name="ground_spring_damper",
+    doc="""A spring-damper from a point of the structure to ground, the same in all three translations.
+
+Physics: a load path the nominal model lacks between the structure and the fixed world: a cable
+or hose clamped to the rig's frame, a support touching the floor, a damper (``stiffness_n_per_m``
+zero) left connected. The rig diagnosis has no candidate of its own for it: its generic local
+element (a dynamic stiffness to ground at any place) stands in and reports it as outside the
+catalogue.
+
+Signature: the modes that move the point rise (``d(omega^2) = k |phi|^2``, Rayleigh, ``phi`` the
+mode's mass-normalised motion at the point) and gain damping ``zeta ~ c |phi|^2 / (2 omega)``;
+the quasi-static response near the point drops (the drive now loads the spring); modes with a
+node there stay.
+""",
+    parameters=(
+        Parameter("stiffness_n_per_m", "N/m", 0.0, 1e9, 1e5, "stiffness to ground"),
+        Parameter("damping_n_s_per_m", "N s/m", 0.0, 1e6, 500.0, "viscous damping to ground"),
+    ),
+    add_items=_add_ground_spring_damper,
     locations=_EXPECTED,
     check_location=_check_point_location,
 ))

@@ -17,6 +17,7 @@ RUBBER_REGION = "bracket_left_rubber"
 
 
 def rubber_body(model) -> str | None:
+    """Return the name of the body that holds the rubber pad's region (None without one)."""
     for name, handle in model.bodies.items():
         if RUBBER_REGION in handle.body.region_nodes:
             return name

@@ -142,10 +142,13 @@ def simulate(model, signal="white-noise", duration_s: float = 80.0, method: str 
     if unknown:
         raise InputError(f"output gains for unknown sensor(s) {unknown}; the model has {list(model.sensors)}")
     acc = np.array(acc, copy=True) if gains else acc
-    channels = []
     for i, name in enumerate(model.sensors):
         if name in gains:
             acc[i] = acc[i] * float(gains[name])
+    for fault in getattr(model, "output_faults", ()):  # acquisition faults (physics.sensor_faults)
+        acc = fault.apply(acc, tuple(model.sensors), OUTPUT_RATE_HZ)
+    channels = []
+    for i, name in enumerate(model.sensors):
         s = model.sensors[name].sensor
         channels.append(Channel(name, "acceleration", "m/s^2", s.direction, s.position_m, OUTPUT_RATE_HZ,
                                 acc[i], sensitivity=s.sensitivity))

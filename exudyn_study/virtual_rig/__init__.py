@@ -16,10 +16,13 @@ from exudyn_study.virtual_rig.run import (
 from exudyn_study.virtual_rig.scenario import THESIS_TABLE1, Augment, Scenario
 from exudyn_study.virtual_rig.scenarios import (
     BLIND_EFFECTS,
+    HELD_BACK_SEED,
     SCENARIOS,
+    WIDE_EFFECTS,
     random_scenario,
     register_scenario,
     scenario,
+    wide_scenario,
 )
 
 __all__ = [
@@ -35,6 +38,9 @@ __all__ = [
     "Augment",
     "Scenario",
     "random_scenario",
+    "wide_scenario",
+    "WIDE_EFFECTS",
+    "HELD_BACK_SEED",
     "register_scenario",
     "scenario",
 ]

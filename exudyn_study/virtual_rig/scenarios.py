@@ -21,7 +21,10 @@ one single-effect scenario per catalogue entry
 
 :func:`random_scenario` draws a blind scenario (effect, location, parameter value within
 the entry's bounds, seed) for the diagnosis benchmark; its name says nothing about the
-effect.
+effect. :func:`wide_scenario` draws from a wider pool (:data:`WIDE_EFFECTS`: structural effects
+at every sensor point and frame interface, sensor faults including polarity and swaps, physics
+the diagnosis has no candidate for), with two effects at once in :data:`WIDE_TWO_EFFECT_SHARE`
+of the scenarios; :data:`HELD_BACK_SEED` draws a range kept for the final score.
 """
 
 from __future__ import annotations
@@ -45,6 +48,11 @@ __all__ = [
     "register_scenario",
     "random_scenario",
     "BLIND_EFFECTS",
+    "wide_scenario",
+    "WIDE_EFFECTS",
+    "WIDE_TWO_EFFECT_SHARE",
+    "DEVELOPMENT_SEED",
+    "HELD_BACK_SEED",
 ]
 
 
@@ -61,7 +69,7 @@ def register_scenario(s: Scenario, replace: bool = False) -> Scenario:
 
 
 def scenario(name: str) -> Scenario:
-    """The scenario called ``name`` (InputError listing the known ones)."""
+    """Return the scenario called ``name`` (InputError listing the known ones)."""
     try:
         return _SCENARIOS[name]
     except (KeyError, TypeError):
@@ -157,6 +165,34 @@ _SINGLE = (
         "The chassis's modal damping is 2.5 times the Adams default.",
     ),
     ("sensor_gain", "ARHBZ", {"gain": 1.25}, 1, "Sensor ARHBZ reads 25 % high (a calibration error)."),
+    (
+        "tuned_mass_damper",
+        "ATHBZ",
+        {"mass_kg": 6.0, "frequency_hz": 18.0, "damping_ratio": 0.08},
+        1,
+        "A 6 kg mass on an 18 Hz, 8 %-damped spring at the right tank's rear (sensor ATHBZ): a tuned "
+        "mass-damper the nominal model lacks.",
+    ),
+    (
+        "ground_spring_damper",
+        "ARHBZ",
+        {"stiffness_n_per_m": 0.0, "damping_n_s_per_m": 3000.0},
+        1,
+        "A 3000 N s/m dashpot from the left side member's rear (sensor ARHBZ) to ground: outside the "
+        "diagnosis's candidates.",
+    ),
+    ("sensor_polarity", "ARFMZ", {"gain": 1.0}, 1, "Sensor ARFMZ is mounted upside down (reads -1 times)."),
+    ("sensor_swap", "ARFVZ/ARHBZ", {}, 1, "The cables of channels ARFVZ and ARHBZ are swapped."),
+    ("sensor_axis", "ARFVZ>ARFVY", {}, 1, "Sensor ARFVZ is mounted turned: it measures the y axis."),
+    ("sensor_dead", "ARVBZ", {}, 1, "Channel ARVBZ is dead (only the acquisition's noise)."),
+    (
+        "sensor_clipped",
+        "ARFVZ",
+        {"clip_level_m_per_s2": 2.0},
+        1,
+        "Channel ARFVZ saturates at 2 m/s^2 (its input range set too low).",
+    ),
+    ("sensor_delay", "ARHBZ", {"delay_s": 0.004}, 1, "Channel ARHBZ is recorded 4 ms late."),
 )
 
 for _name, _loc, _params, _variant, _text in _SINGLE:
@@ -182,7 +218,7 @@ BLIND_EFFECTS = {
 
 
 def random_scenario(index: int, effect: str | None = None, rng_seed: int = 2026) -> Scenario:
-    """A blind scenario: effect, location, parameter values (log-uniform within bounds) and seed drawn.
+    """Return a blind scenario: effect, location, parameter values (log-uniform in bounds), seed drawn.
 
     Parameters
     ----------
@@ -246,3 +282,102 @@ _BLIND_RANGES = {
 _BLIND_FIXED = {("modal_damping", "max_frequency_hz"): 200.0}
 #: ratio parameters drawn as their value or its inverse with equal probability
 _BLIND_RATIO = {("modal_damping", "factor"), ("sensor_gain", "gain")}
+
+
+#: Model-1 places of point effects: every sensor point and frame interface (thesis sensor table)
+_POINTS = (
+    "ARFVZ", "ARFHZ", "ARFMZ", "AVBFZ", "ARVBZ", "ARHBZ", "ATVBZ", "ATHBZ", "ATVFX", "ATHFX", "ASVZ",
+    "ASHZ", "ASVX", "chassis.front_strut",
+)
+_CHANNELS = ("ARFVZ", "ARFMZ", "ARHBZ", "ARVBZ", "AVBFZ", "ATVBZ", "ATHBZ", "ASVZ", "ASHZ")
+
+#: effects of :func:`wide_scenario`: entry -> (places, {parameter: (low, high)} drawn log-uniformly
+#: (a parameter not listed keeps its default), kind). Kinds: 'structure' (a catalogue candidate
+#: exists), 'sensor' (an acquisition fault), 'outside' (no candidate: the generic local element)
+WIDE_EFFECTS = {
+    "added_mass": (_POINTS, {"mass_kg": (5.0, 30.0)}, "structure"),
+    "tuned_mass_damper": (
+        _POINTS,
+        {"mass_kg": (3.0, 12.0), "frequency_hz": (8.0, 45.0), "damping_ratio": (0.03, 0.15)},
+        "structure",
+    ),
+    "drive_linkage_compliance": (
+        (None,),
+        {"stiffness_n_per_m": (8e6, 5e7), "damping_n_s_per_m": (1e3, 4e3), "mass_kg": (10.0, 40.0)},
+        "structure",
+    ),
+    "rear_support_compliance": (("rear_left", "rear_right"), {"vertical_stiffness_n_per_m": (5e6, 3e7)},
+                                "structure"),
+    "sensor_gain": (_CHANNELS, {"gain": (1.1, 1.4)}, "sensor"),
+    "sensor_polarity": (_CHANNELS, {"gain": (0.9, 1.1)}, "sensor"),
+    "sensor_swap": (tuple(f"{a}/{b}" for a, b in zip(_CHANNELS, _CHANNELS[3:] + _CHANNELS[:3], strict=True)),
+                    {}, "sensor"),
+    "sensor_dead": (_CHANNELS, {}, "sensor"),
+    "sensor_delay": (_CHANNELS, {"delay_s": (0.002, 0.008)}, "sensor"),
+    "ground_spring_damper": (_POINTS, {"damping_n_s_per_m": (1e3, 6e3)}, "outside"),
+}
+#: parameters of a wide effect fixed, not drawn (a dashpot to ground: no spring)
+_WIDE_FIXED = {("ground_spring_damper", "stiffness_n_per_m"): 0.0}
+#: share of :func:`wide_scenario` draws with two effects (a structural effect with a sensor fault, or
+#: two at different places)
+WIDE_TWO_EFFECT_SHARE = 0.4
+#: seeds of the draws used while developing, and of the held-back range reported separately
+DEVELOPMENT_SEED = 2026
+HELD_BACK_SEED = 8128
+
+
+def _wide_effect(rng, name: str, taken: set) -> Augment:
+    from exudyn_study.physics.catalogue import entry
+
+    places, ranges, _ = WIDE_EFFECTS[name]
+    free = [p for p in places if p is None or not (set(str(p).replace(">", "/").split("/")) & taken)]
+    place = free[int(rng.integers(len(free)))] if free else places[int(rng.integers(len(places)))]
+    e = entry(name)
+    params = {}
+    for p in e.parameters:
+        if (name, p.name) in _WIDE_FIXED:
+            params[p.name] = _WIDE_FIXED[(name, p.name)]
+        elif p.name in ranges:
+            lo, hi = ranges[p.name]
+            params[p.name] = p.check(float(math.exp(rng.uniform(math.log(lo), math.log(hi)))), name)
+    return Augment(name, place, params)
+
+
+def wide_scenario(index: int, effect: str | None = None, rng_seed: int = DEVELOPMENT_SEED) -> Scenario:
+    """Return a blind scenario of the wider pool: one or two effects of :data:`WIDE_EFFECTS` on Model 1.
+
+    Parameters
+    ----------
+    index : int
+        Scenario number (name ``wide-{index:03d}``; the draw is reproducible from it and ``rng_seed``).
+    effect : str, optional
+        ``'none'`` for a scenario without an effect; default drawn.
+    rng_seed : int
+        :data:`DEVELOPMENT_SEED` while developing, :data:`HELD_BACK_SEED` for the held-back range.
+
+    Returns
+    -------
+    Scenario
+    """
+    rng = np.random.default_rng([rng_seed, int(index), 7])
+    seed = int(rng.integers(1, 10_000))
+    name = f"wide-{index:03d}"
+    if effect == "none":
+        return Scenario(name=name, description="blind scenario", variant=1, seed=seed).with_seed(seed)
+    if effect is not None and effect not in WIDE_EFFECTS:
+        known = sorted(WIDE_EFFECTS)
+        raise InputError(f"wide effect {effect!r} is unknown; expected 'none' or one of {known}")
+    names = sorted(WIDE_EFFECTS)
+    first = effect or names[int(rng.integers(len(names)))]
+    taken: set = set()
+    augs = [_wide_effect(rng, first, taken)]
+    taken |= set(str(augs[0].location).replace(">", "/").split("/"))
+    if effect is None and rng.uniform() < WIDE_TWO_EFFECT_SHARE:
+        # a second effect of another kind (two sensor faults at once are left out: one channel's
+        # residual would not tell them apart)
+        both_sensor = first.startswith("sensor_")
+        others = [n for n in names if n != first and not (both_sensor and n.startswith("sensor_"))]
+        augs.append(_wide_effect(rng, others[int(rng.integers(len(others)))], taken))
+    return Scenario(
+        name=name, description="blind scenario", variant=1, seed=seed, augmentations=tuple(augs)
+    ).with_seed(seed)

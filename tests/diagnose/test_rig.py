@@ -1,5 +1,6 @@
-"""The rig path of the diagnosis on the mini frame: finds a hidden effect, says nothing when nothing is missing,
-rejects bad input. Truth recordings come from the virtual rig (the diagnosis never sees the truth)."""
+"""The rig path of the diagnosis on the mini frame: finds a hidden effect, says nothing when nothing is
+missing, rejects bad input. Truth recordings come from the virtual rig (the diagnosis never sees the
+truth)."""
 
 from __future__ import annotations
 
@@ -26,7 +27,8 @@ def bodies():
 
 
 def _recordings(bodies, augmentations, seed=5):
-    sc = Scenario("mini", "test", variant=1, damping="constant-2", augmentations=augmentations).with_seed(seed)
+    sc = Scenario("mini", "test", variant=1, damping="constant-2", augmentations=augmentations)
+    sc = sc.with_seed(seed)
     train = virtual_recording(sc, "white-noise", DURATION_S, bodies=bodies, sensors=FRAME_SENSORS)
     hold = virtual_recording(sc, "test", DURATION_S, bodies=bodies, sensors=FRAME_SENSORS)
     return train, hold
@@ -35,8 +37,7 @@ def _recordings(bodies, augmentations, seed=5):
 def _diagnose(bodies, train, hold, **kw):
     from exudyn_study.diagnose.rig import RigDiagnosisSettings, diagnose_rig
 
-    st = RigDiagnosisSettings()
-    st.train_duration_s, st.screen_duration_s = 12.0, 8.0
+    st = RigDiagnosisSettings(train_duration_s=12.0, screen_duration_s=8.0)
     return diagnose_rig(1, [train], [hold], damping="constant-2", bodies=bodies, sensors=FRAME_SENSORS,
                         settings=st, **kw)
 
@@ -81,10 +82,12 @@ def test_bad_input(bodies):
     no_drive = Recording(tuple(ch for ch in hold if ch.role != "drive"), dict(hold.metadata))
     with pytest.raises(InputError, match="has no drive channel"):
         _diagnose(bodies, train, no_drive.__class__(tuple(no_drive) + (), dict(no_drive.metadata)))
-    renamed = Recording(tuple(dataclasses.replace(ch, name="XXXZ") if ch.name == "ARFVY" else ch for ch in train),
-                        dict(train.metadata))
-    renamed_hold = Recording(tuple(dataclasses.replace(ch, name="XXXZ") if ch.name == "ARFVY" else ch for ch in hold),
-                             dict(hold.metadata))
+
+    def rename(rec):
+        chans = tuple(dataclasses.replace(ch, name="XXXZ") if ch.name == "ARFVY" else ch for ch in rec)
+        return Recording(chans, dict(rec.metadata))
+
+    renamed, renamed_hold = rename(train), rename(hold)
     with pytest.raises(InputError, match=r"channels \['XXXZ'\] are not sensors of the model"):
         _diagnose(bodies, renamed, renamed_hold)
     assert np.isfinite(train.channel("ARFVZ").data).all()
@@ -97,7 +100,8 @@ def test_bushing_stiffening_on_model_3_is_found_as_level_dependent(tmp_path):
     from exudyn_study.diagnose.rig import diagnose_rig
     from exudyn_study.virtual_rig import run_virtual_test
 
-    paths = run_virtual_test("bushing_stiffening", ["white-noise", "test-50", "test"], tmp_path, duration_s=60.0)
+    paths = run_virtual_test("bushing_stiffening", ["white-noise", "test-50", "test"], tmp_path,
+                             duration_s=60.0)
     d = diagnose_rig(3, paths[:2], paths[2:])
     f = d.findings[0]
     assert f.physics == "bushing_stiffening" and f.level_dependent

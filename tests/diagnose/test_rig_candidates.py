@@ -137,8 +137,7 @@ def test_a_user_entry_registered_as_candidate_is_found_fitted_and_improves_held_
 
     register_rig_candidate("test_absorber", factory, description="test: a mass on a spring at a sensor")
     try:
-        st = RigDiagnosisSettings()
-        st.train_duration_s, st.screen_duration_s, st.max_findings = 12.0, 8.0, 1
+        st = RigDiagnosisSettings(train_duration_s=12.0, screen_duration_s=8.0, max_findings=1)
         d = diagnose_rig(
             1,
             [train],
@@ -186,8 +185,8 @@ CONNECTORS = {
             "damping_time_s": 1.5e-3,
         },
     ),
-    # all its moduli free (rig_candidates.PAD_NAMES), carried as the entry's factors and torsion change: rocking
-    # unlike compression about each axis, torsion softer than the rubber (no damping on that part)
+    # all its moduli free (rig_candidates.PAD_NAMES), carried as the entry's factors and torsion change:
+    # rocking unlike compression about each axis, torsion softer than the rubber (no damping on that part)
     "bushing_stiffness:all": (
         "bracket_left",
         None,

@@ -37,8 +37,7 @@ def test_a_soft_tank_mount_is_located_and_fitted():
     ).with_seed(5)
     train = virtual_recording(sc, "white-noise", DURATION_S, bodies=bodies, sensors=MODEL3_SENSORS)
     hold = virtual_recording(sc, "test", DURATION_S, bodies=bodies, sensors=MODEL3_SENSORS)
-    st = RigDiagnosisSettings()
-    st.train_duration_s, st.screen_duration_s, st.max_findings = 12.0, 8.0, 1
+    st = RigDiagnosisSettings(train_duration_s=12.0, screen_duration_s=8.0, max_findings=1)
     d = diagnose_rig(
         3,
         [train],

@@ -43,53 +43,53 @@ def _pair(cubic):
 
 
 def test_a_linear_structure_has_no_nonlinear_share_and_a_cubic_one_has_its_exact_share():
-    from exudyn_study.diagnose.rig import _distortion_shares
+    from exudyn_study.diagnose.rig_locate import distortion_shares
 
     lo, hi, _ = _pair(0.0)
-    share, strong = _distortion_shares([lo, hi])
+    share, strong = distortion_shares([lo, hi])
     assert strong is hi
     assert share.max() < 1e-9  # exactly scaled responses: nothing level dependent
 
     cubic = 0.02
     lo, hi, lin = _pair(cubic)
-    share, strong = _distortion_shares([lo, hi])
+    share, strong = distortion_shares([lo, hi])
     expected = np.sqrt(np.mean(band_filter(0.75 * cubic * lin[2] ** 3) ** 2)) * hi.scale[2]
     assert share[2] == pytest.approx(expected, rel=1e-6)
     assert share[2] > 0.005 and np.delete(share, 2).max() < 1e-9
 
 
 def test_drives_that_are_not_scaled_copies_give_no_share():
-    from exudyn_study.diagnose.rig import _distortion_shares
+    from exudyn_study.diagnose.rig_locate import distortion_shares
 
     lo, hi, _ = _pair(0.02)
     rng = np.random.default_rng(3)
     other = _recording("other", rng.permutation(hi.drive.samples), hi.measured)
-    assert _distortion_shares([lo, other]) is None
+    assert distortion_shares([lo, other]) is None
 
 
 def test_level_dependence_is_judged_on_the_error_left_at_the_nonlinear_channel():
     """The cubic channel's nonlinear share counts once the model's error there is of its size (a linear
     finding has explained the rest), not while a large linear error hides it."""
-    from exudyn_study.diagnose.rig import _distortion_shares, _level_dependent
+    from exudyn_study.diagnose.rig_locate import distortion_shares, is_level_dependent
 
     lo, hi, lin = _pair(0.02)
-    dist = _distortion_shares([lo, hi])
+    dist = distortion_shares([lo, hi])
     rows = np.arange(4)
     # model = the linear part exactly: what is left is the nonlinear share
     exact = [0.5 * lin, lin]
-    assert _level_dependent([lo, hi], exact, rows, dist)
+    assert is_level_dependent([lo, hi], exact, rows, dist)
     # model with a 50 % linear error everywhere: the nonlinear share is hidden
     wrong = [0.75 * lin, 1.5 * lin]
-    assert not _level_dependent([lo, hi], wrong, rows, dist)
+    assert not is_level_dependent([lo, hi], wrong, rows, dist)
 
 
 def test_the_held_out_level_pair_takes_its_stronger_recording_from_the_held_out_ones():
     """A nonlinear finding fitted on the training levels is proven at a held-out level of the same drive:
     the pair's stronger recording must be held out (the weaker may be a training one)."""
-    from exudyn_study.diagnose.rig import _level_pair
+    from exudyn_study.diagnose.rig_locate import level_pair
 
     lo, hi, _ = _pair(0.02)
-    c, weak, strong, _ = _level_pair([lo, hi], stronger_in=[hi])
+    c, weak, strong, _ = level_pair([lo, hi], stronger_in=[hi])
     assert weak is lo and strong is hi and c == pytest.approx(2.0, rel=1e-9)
-    assert _level_pair([lo, hi], stronger_in=[lo]) is None  # the held-out one is the weaker: no pair
-    assert _level_pair([lo, hi], stronger_in=[]) is None
+    assert level_pair([lo, hi], stronger_in=[lo]) is None  # the held-out one is the weaker: no pair
+    assert level_pair([lo, hi], stronger_in=[]) is None

@@ -47,10 +47,13 @@ def test_the_final_refit_corrects_a_finding_and_flags_one_the_data_do_not_suppor
     support's damping time ended at a bound in its round: the free refit (``hold_at_bound=False``, the
     first the diagnosis tries) fits it and corrects the stiffness; the held one keeps it (and the stiffness
     then makes up for the wrong damping: 6.6e6 N/m, not 5e6)."""
-    from exudyn_study.diagnose.rig import RigDiagnosisSettings, _Evaluator, _final_refit, _finding
     from exudyn_study.diagnose.rig_candidates import _rear_support_basis
     from exudyn_study.diagnose.rig_compare import prepare
+    from exudyn_study.diagnose.rig_evaluate import Evaluator
+    from exudyn_study.diagnose.rig_explain import make_finding
+    from exudyn_study.diagnose.rig_fit_together import final_refit
     from exudyn_study.diagnose.rig_hypotheses import AddedMassHypothesis, ConnectorHypothesis, model_system
+    from exudyn_study.diagnose.rig_settings import RigDiagnosisSettings
     from exudyn_study.linear.nonlinear import marker_displacement_map
     from exudyn_study.physics import entry
     from exudyn_study.physics.entries import location_point
@@ -88,18 +91,18 @@ def test_the_final_refit_corrects_a_finding_and_flags_one_the_data_do_not_suppor
     records = [{"h": rear, "accepted": 0, "at_bound": [False, True]}, {"h": mass, "accepted": 1}]
     sensor_names = tuple(model.sensors)
     recs = [prepare(train, sensor_names, "train", 12.0)]
-    ev = _Evaluator(recs, sensor_names, 10.0, exact=True)
-    held = _final_refit(records, accepted, build, ev, recs[0].channels, None, RigDiagnosisSettings(), print)
+    ev = Evaluator(recs, sensor_names, 10.0, exact=True)
+    held = final_refit(records, accepted, build, ev, recs[0].channels, None, RigDiagnosisSettings(), print)
     assert held["meta"]["held_at_bound"] == ["rear_support_compliance@rear_left:damping_time_s"]
     assert held["values"][0][1] == 2e-4 and held["rss_after"] < held["rss_before"]
     st = RigDiagnosisSettings()
-    refit = _final_refit(records, accepted, build, ev, recs[0].channels, None, st, print, hold_at_bound=False)
+    refit = final_refit(records, accepted, build, ev, recs[0].channels, None, st, print, hold_at_bound=False)
     assert refit is not None and refit["rss_after"] < 0.1 * refit["rss_before"]
     assert refit["meta"]["held_at_bound"] == [] and refit["values"][0][1] != 2e-4
     (k, _), (m,) = refit["values"]
     assert k == pytest.approx(5e6, rel=0.05)
     assert refit["flags"][0] == [] and not refit["at_bound"][0][0]
-    flags = _finding(
+    flags = make_finding(
         mass,
         refit["values"][1],
         refit["std"][1],
@@ -118,8 +121,7 @@ def test_the_final_refit_corrects_a_finding_and_flags_one_the_data_do_not_suppor
 def _diagnose(bodies, train, hold):
     from exudyn_study.diagnose.rig import RigDiagnosisSettings, diagnose_rig
 
-    st = RigDiagnosisSettings()
-    st.train_duration_s, st.screen_duration_s = 12.0, 8.0
+    st = RigDiagnosisSettings(train_duration_s=12.0, screen_duration_s=8.0)
     return diagnose_rig(
         1,
         train,
@@ -175,8 +177,7 @@ def test_both_soft_rear_supports_are_found_and_refitted_together(bodies):
     kw = {"bodies": bodies, "sensors": FRAME_SENSORS}
     train = virtual_recording(sc, "white-noise", DURATION_S, **kw)
     hold = virtual_recording(sc, "test", DURATION_S, **kw)
-    st = RigDiagnosisSettings()
-    st.train_duration_s, st.screen_duration_s = 12.0, 8.0
+    st = RigDiagnosisSettings(train_duration_s=12.0, screen_duration_s=8.0)
     d = diagnose_rig(
         1, [train], [hold], damping="constant-2", bodies=bodies, sensors=FRAME_SENSORS, settings=st
     )

@@ -89,13 +89,14 @@ def test_the_level_dependent_share_is_blind_to_linear_model_errors():
     linear part does; a model with the right cubic term leaves nothing."""
     from test_rig_level import _pair
 
-    from exudyn_study.diagnose.rig import _DistortionEvaluator, _level_pair
+    from exudyn_study.diagnose.rig_evaluate import DistortionEvaluator
+    from exudyn_study.diagnose.rig_locate import level_pair
 
     cubic = 0.02
     lo, hi, lin = _pair(cubic)
-    pair = _level_pair([hi, lo])
+    pair = level_pair([hi, lo])
     assert pair is not None and pair[1] is lo and pair[2] is hi and pair[0] == pytest.approx(2.0)
-    ev = _DistortionEvaluator(pair, ("A", "B", "C", "D"), pad_s=4.0)
+    ev = DistortionEvaluator(pair, ("A", "B", "C", "D"), pad_s=4.0)
 
     def responses(linear_factor, e):
         out = []
@@ -125,12 +126,12 @@ def test_the_level_dependent_share_is_blind_to_linear_model_errors():
 
 def test_a_registered_explain_callable_writes_the_finding_text():
     """A candidate registered with ``explain`` gets its text from it; without, the values are listed."""
-    from exudyn_study.diagnose.rig import _explain
     from exudyn_study.diagnose.rig_candidates import (
         RIG_CANDIDATES,
         ExplainContext,
         register_rig_candidate,
     )
+    from exudyn_study.diagnose.rig_explain import explain as explain_finding
     from exudyn_study.diagnose.rig_hypotheses import Hypothesis
     from exudyn_study.errors import InputError
 
@@ -146,22 +147,22 @@ def test_a_registered_explain_callable_writes_the_finding_text():
 
     h = Fixed("added_mass", "ARHBZ", ("mass_kg",), ("kg",), np.zeros(1), np.ones(1), np.ones(1))
     original = RIG_CANDIDATES["added_mass"]
-    import exudyn_study.diagnose.rig as rig
+    import exudyn_study.diagnose.rig_explain as rig_explain
 
-    rig._shifted_modes, shifted = (lambda a, b: ([(10.0, 9.0)], [])), rig._shifted_modes
+    rig_explain.shifted_modes, shifted = (lambda a, b: ([(10.0, 9.0)], [])), rig_explain.shifted_modes
     try:
         register_rig_candidate("added_mass", original.factory, explain=explain, replace=True)
-        assert _explain(h, [3.25], [0.1], None, None, ["ARHBZ"]) == "ARHBZ: 3.2 kg"
+        assert explain_finding(h, [3.25], [0.1], None, None, ["ARHBZ"]) == "ARHBZ: 3.2 kg"
         assert isinstance(seen[0], ExplainContext) and "10.00 -> 9.00 Hz" in seen[0].shifts
         register_rig_candidate("added_mass", original.factory, replace=True)
         assert (
-            _explain(h, [3.25], [0.1], None, None, ["ARHBZ"])
+            explain_finding(h, [3.25], [0.1], None, None, ["ARHBZ"])
             == "added_mass at ARHBZ: mass_kg = 3.25 +- 0.1 (10.00 -> 9.00 Hz)."
         )
         with pytest.raises(InputError, match="explain .* is not callable"):
             register_rig_candidate("added_mass", original.factory, explain="text", replace=True)
     finally:
-        rig._shifted_modes = shifted
+        rig_explain.shifted_modes = shifted
         RIG_CANDIDATES["added_mass"] = original  # same place in the registry's order
     assert RIG_CANDIDATES["added_mass"].explain is not None
 
@@ -172,7 +173,7 @@ def _joint_fit_case(model3):
     settings, say)`` runs the joint fit and returns (kept fits, meta)."""
     from rig_fixtures import MODEL3_SENSORS, mini_model3_bodies
 
-    from exudyn_study.diagnose import rig
+    from exudyn_study.diagnose import rig_evaluate, rig_fit_together
     from exudyn_study.diagnose.rig_candidates import JOINT_RIGID
     from exudyn_study.diagnose.rig_compare import prepare, summary_error
     from exudyn_study.diagnose.rig_hypotheses import ConnectorHypothesis, model_system
@@ -195,10 +196,10 @@ def _joint_fit_case(model3):
     lin0 = model_system(model3())
     names = tuple(lin0.sensor_names)
     train, hold = (prepare(r, names, n) for r, n in zip(recs, ("train", "hold"), strict=True))
-    pad = rig._decay_time(lin0)
-    ev_spectral = rig._SpectralEvaluator([train], names)
-    ev_train = rig._Evaluator([train], names, pad, exact=True)
-    ev_hold = rig._Evaluator([hold], names, pad, exact=True)
+    pad = rig_evaluate.decay_time(lin0)
+    ev_spectral = rig_evaluate.SpectralEvaluator([train], names)
+    ev_train = rig_evaluate.Evaluator([train], names, pad, exact=True)
+    ev_hold = rig_evaluate.Evaluator([hold], names, pad, exact=True)
     start = {"stiffness_n_per_m": 1e6, "rotational_stiffness_n_m_per_rad": 1e5, "damping_time_s": 1e-4}
     hyps = [
         ConnectorHypothesis(
@@ -219,13 +220,13 @@ def _joint_fit_case(model3):
 
     def fit(hyps, st, say):
         meta = {"candidates": []}
-        ok = rig._fit_together(
+        ok = rig_fit_together.fit_together(
             hyps,
             [0.5, 0.4],
             model3,
             ev_spectral,
             ev_train,
-            rig._Evaluator([hold], names, pad),  # the members are judged on the convolution
+            rig_evaluate.Evaluator([hold], names, pad),  # the members are judged on the convolution
             lin0,
             train.channels,
             [train],
@@ -245,10 +246,10 @@ def test_a_joint_fit_keeps_the_member_that_pays_and_drops_the_one_that_does_not(
     """The truth has one soft tank mount (left front); a joint fit of it with a joint that is rigid in the
     truth (right front): taken out with the other refitted, the true mount costs most of the held-out
     error, the rigid one nothing, so the first is kept and the second rejected ('does not pay')."""
-    from exudyn_study.diagnose import rig
+    from exudyn_study.diagnose.rig_settings import RigDiagnosisSettings
 
     truth, hyps, fit, hold0 = _joint_fit_case(model3)
-    ok, meta = fit(hyps, rig.RigDiagnosisSettings(), lambda text: None)
+    ok, meta = fit(hyps, RigDiagnosisSettings(), lambda text: None)
     verdict = {c["location"]: c for c in meta["candidates"]}
     assert verdict[JOINTS[0]]["member"]["pays"], verdict
     assert verdict[JOINTS[0]]["member"]["holdout_gain"] > 0.3
@@ -264,14 +265,13 @@ def test_a_joint_fit_stuck_at_the_screening_optimum_is_restarted_at_the_prior(mo
     in its stiffness: a fit started there stays); its prior start is 1e6 N/m. With the second start the
     soft mount is found (the lower training residual wins); without it the joint fit stays rigid and
     nothing is kept."""
-    from exudyn_study.diagnose import rig
+    from exudyn_study.diagnose.rig_settings import RigDiagnosisSettings
 
     truth, hyps, fit, hold0 = _joint_fit_case(model3)
     rigid = np.array([1e9, 1e7, 1e-4])
     results = {}
     for second in (False, True):
-        st = rig.RigDiagnosisSettings()
-        st.composite_prior_start = second
+        st = RigDiagnosisSettings(composite_prior_start=second)
         for h in hyps:
             h.start = rigid.copy()  # the screening optimum; h.prior keeps the candidate's start (1e6 N/m)
         said = []
@@ -308,14 +308,13 @@ def test_the_pad_hardening_is_fitted_on_the_level_dependent_share_of_the_trainin
         s: virtual_recording(sc, s, 11.0, bodies=bodies, sensors=MODEL3_SENSORS)
         for s in ("test-50", "test", "white-noise")
     }
-    st = RigDiagnosisSettings()
-    st.train_duration_s, st.screen_duration_s, st.train_duration_nonlinear_s, st.max_findings = (
-        8.0,
-        8.0,
-        8.0,
-        1,
+    st = RigDiagnosisSettings(
+        train_duration_s=8.0,
+        screen_duration_s=8.0,
+        train_duration_nonlinear_s=8.0,
+        max_findings=1,
+        n_fit_simulated=1,  # the best-screened nonlinear candidate only (each fit simulates in time)
     )
-    st.n_fit_simulated = 1  # the best-screened nonlinear candidate only (each fit simulates in time)
     d = diagnose_rig(
         3,
         [recs["test-50"], recs["test"]],
@@ -396,7 +395,7 @@ def test_the_spectral_fit_refuses_a_model_with_an_indefinite_mass(model3):
     member was rejected as switching the response off."""
     from rig_fixtures import MODEL3_SENSORS, mini_model3_bodies
 
-    from exudyn_study.diagnose import rig
+    from exudyn_study.diagnose import rig_evaluate
     from exudyn_study.diagnose.rig_compare import prepare
     from exudyn_study.diagnose.rig_hypotheses import model_system
     from exudyn_study.physics import entry
@@ -415,7 +414,7 @@ def test_the_spectral_fit_refuses_a_model_with_an_indefinite_mass(model3):
     heavy, light = system(300.0), system(50.0)  # the mini tanks have 281 kg each
     assert np.linalg.eigvalsh(0.5 * (heavy.mass + heavy.mass.T))[0] < 0.0
     names = tuple(light.sensor_names)
-    ev = rig._SpectralEvaluator([prepare(rec, names, "train")], names)
+    ev = rig_evaluate.SpectralEvaluator([prepare(rec, names, "train")], names)
 
     class Fixed:
         def __init__(self, system):
@@ -427,8 +426,8 @@ def test_the_spectral_fit_refuses_a_model_with_an_indefinite_mass(model3):
         def gains(self, p, channels):
             return None
 
-    assert rig._safe_residual(Fixed(heavy), ev, rec.channels, None) is None
-    r = rig._safe_residual(Fixed(light), ev, rec.channels, None)
+    assert rig_evaluate.safe_residual(Fixed(heavy), ev, rec.channels, None) is None
+    r = rig_evaluate.safe_residual(Fixed(light), ev, rec.channels, None)
     assert r is not None and np.all(np.isfinite(r))
 
 
@@ -438,7 +437,7 @@ def test_the_joint_fits_further_starts_put_the_best_screened_physics_then_every_
     is left out (and the next one takes its ordinal); values are clipped to the composite's bounds."""
     from types import SimpleNamespace
 
-    from exudyn_study.diagnose.rig import _prior_starts
+    from exudyn_study.diagnose.rig_fit_together import prior_starts
 
     members = [SimpleNamespace(physics="rear_support_compliance", prior={"k": 5.0}),
                SimpleNamespace(physics="joint_stiffness", prior={"c": 7.0, "d": 50.0}),
@@ -446,13 +445,13 @@ def test_the_joint_fits_further_starts_put_the_best_screened_physics_then_every_
     comp = SimpleNamespace(specs=[(0, "k"), (1, "c"), (1, "d"), (2, "k")],
                            lower=np.zeros(4), upper=np.array([10.0, 10.0, 10.0, 10.0]))
     start_a = np.array([1.0, 2.0, 3.0, 4.0])
-    starts = _prior_starts(comp, members, start_a, all_prior=True)
+    starts = prior_starts(comp, members, start_a, all_prior=True)
     assert [(o, w) for o, w, _ in starts] == [("second", "rear_support_compliance at its prior start"),
                                             ("third", "every member at its prior start")]
     np.testing.assert_array_equal(starts[0][2], [5.0, 2.0, 3.0, 6.0])
     np.testing.assert_array_equal(starts[1][2], [5.0, 7.0, 10.0, 6.0])  # 50 clipped to the upper bound
     np.testing.assert_array_equal(start_a, [1.0, 2.0, 3.0, 4.0])  # not changed in place
-    assert [o for o, _, _ in _prior_starts(comp, members, start_a, all_prior=False)] == ["second"]
+    assert [o for o, _, _ in prior_starts(comp, members, start_a, all_prior=False)] == ["second"]
     at_prior = np.array([5.0, 2.0, 3.0, 6.0])  # the top physics already at its prior: no second start
-    starts = _prior_starts(comp, members, at_prior, all_prior=True)
+    starts = prior_starts(comp, members, at_prior, all_prior=True)
     assert [(o, w) for o, w, _ in starts] == [("second", "every member at its prior start")]

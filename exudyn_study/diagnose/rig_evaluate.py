@@ -1,0 +1,485 @@
+"""Evaluators and the least-squares fit shared by the stages of the rig diagnosis.
+
+An evaluator simulates a candidate's system against prepared recordings
+(:class:`~exudyn_study.diagnose.rig_compare.RigRecording`) and returns a residual vector:
+
+- :class:`Evaluator`: time histories, by convolution (screening) or exact discretisation (fits,
+  errors, significance);
+- :class:`SpectralEvaluator`: log-magnitude transmissibilities (a model far off);
+- :class:`DistortionEvaluator`: the level-dependent share of one drive at two levels (nonlinear
+  candidates).
+
+:func:`fit_hypothesis` fits a :class:`~exudyn_study.diagnose.rig_hypotheses.Hypothesis` on any of
+them (bounded least squares in log parameters). Package-internal API of :mod:`exudyn_study.diagnose`.
+"""
+
+from __future__ import annotations
+
+import math
+
+import numpy as np
+
+from exudyn_study.diagnose.rig_compare import (
+    RATE_HZ,
+    band_filter,
+    drive_spectra,
+    relative_errors,
+    summary_error,
+)
+from exudyn_study.diagnose.rig_hypotheses import (
+    Hypothesis,
+    NonlinearSystem,
+    OutputChain,
+    apply_output,
+    apply_output_frf,
+    log_bounds,
+    to_params,
+    to_x,
+)
+
+
+class Evaluator:
+    """Simulate a system against prepared recordings; residual vector and errors.
+
+    ``exact=True``: :func:`~exudyn_study.simulate.simulate_linear` (fits, errors, significance).
+    Otherwise (screening) the response from rest is the linear convolution of the drive
+    with the model's impulse response, computed as ``irfft(H(f) U(f))`` with the drive zero-padded by
+    ``pad_s`` (longer than the slowest mode's decay) after a 1 s fade from its last value
+    to zero (by causality the extension does not change the response within the record;
+    it only keeps the padded drive band-limited). The recorded drive is band-limited to
+    102.4 Hz (204.8 Hz channel), so
+    ``H`` is evaluated only up to :data:`F_MAX_HZ`: about 10x cheaper than the exact
+    discretisation (:func:`~exudyn_study.simulate.simulate_linear`), which it matches to
+    the drive's band limit, except where slow or undamped rig modes (< 3 Hz) wrap around:
+    good enough to rank candidates, not to fit them.
+    """
+
+    F_MAX_HZ = 110.0
+
+    def __init__(self, recordings, sensor_names, pad_s: float = 30.0, exact: bool = False):
+        from exudyn_study.diagnose.rig_compare import RATE_HZ
+
+        self.exact = exact
+        self.pad_s = pad_s
+        self.recs = recordings
+        self.sensor_names = tuple(sensor_names)
+        self.idx = [np.array([self.sensor_names.index(c) for c in r.channels]) for r in recordings]
+        self._cache = {}
+        self.offset = None  # per recording: added to linear simulations (see set_offsets)
+        self.spectra = []
+        for r in recordings:
+            n = r.drive.samples.size
+            m = int(1.0 * RATE_HZ)
+            fade = r.drive.samples[-1] * (0.5 + 0.5 * np.cos(np.pi * np.arange(1, m + 1) / m))
+            u = np.concatenate([r.drive.samples, fade])
+            n_fft = 1 << int(math.ceil(math.log2(n + pad_s * RATE_HZ)))
+            spec = np.fft.rfft(u, n_fft)
+            f = np.fft.rfftfreq(n_fft, 1.0 / RATE_HZ)
+            keep = f <= self.F_MAX_HZ
+            self.spectra.append((n, n_fft, f[keep], spec[keep]))
+
+    def simulate(self, lin, gains=None):
+        """Simulate ``lin`` (output ``gains``) at each recording; list of (n_channels, n_samples) arrays."""
+        from exudyn_study.linear.response import frf_linear
+
+        if self.exact or isinstance(lin, NonlinearSystem):
+            return self.simulate_exact(lin, gains)
+        key = id(lin)
+        if key in self._cache and self._cache[key][0] is lin:
+            base = self._cache[key][1]
+        else:
+            base = []
+            for (n, n_fft, f, spec), idx in zip(self.spectra, self.idx, strict=True):
+                h = frf_linear(lin, f)[idx, 0, :]
+                full = np.zeros((idx.size, n_fft // 2 + 1), dtype=complex)
+                full[:, : f.size] = h * spec[None, :]
+                base.append(np.fft.irfft(full, n_fft, axis=1)[:, :n])
+            if self.offset is not None:
+                base = [b + o for b, o in zip(base, self.offset, strict=True)]
+            self._cache = {key: (lin, base)}
+        if gains is None:
+            return base
+        return [apply_output(b, gains, r.channels, RATE_HZ) for b, r in zip(base, self.recs, strict=True)]
+
+    def simulate_exact(self, lin, gains=None):
+        """Simulate by exact discretisation (:func:`~exudyn_study.simulate.simulate_linear`)."""
+        from exudyn_study.linear.response import simulate_linear
+
+        key = ("exact", id(lin))
+        if key in self._cache and self._cache[key][0] is lin:
+            base = self._cache[key][1]
+        elif isinstance(lin, NonlinearSystem):
+            from exudyn_study.linear.nonlinear import simulate_local_nonlinear
+
+            base = [
+                simulate_local_nonlinear(lin.lin, r.drive, lin.gather, lin.laws, lin.substeps)[idx]
+                for r, idx in zip(self.recs, self.idx, strict=True)
+            ]
+            self._cache = {key: (lin, base)}
+        else:
+            base = [simulate_linear(lin, r.drive)[idx] for r, idx in zip(self.recs, self.idx, strict=True)]
+            if self.offset is not None:
+                base = [b + o for b, o in zip(base, self.offset, strict=True)]
+            self._cache = {key: (lin, base)}
+        if gains is None:
+            return base
+        return [apply_output(b, gains, r.channels, RATE_HZ) for b, r in zip(base, self.recs, strict=True)]
+
+    def residual_vector(self, lin, gains=None):
+        """Band-limited, per-channel scaled residual of all recordings, flattened."""
+        parts = []
+        for r, sim in zip(self.recs, self.simulate(lin, gains), strict=True):
+            e = band_filter(r.measured - sim) * r.scale[:, None]
+            parts.append(e.ravel() / math.sqrt(e.size))
+        return np.concatenate(parts)
+
+    def errors(self, sims):
+        """Per recording, the relative error per channel of the simulations ``sims``."""
+        return [relative_errors(r, s) for r, s in zip(self.recs, sims, strict=True)]
+
+
+class SpectralEvaluator:
+    """Residual of log-magnitude transmissibilities: model FRF against the recordings' H1 estimates.
+
+    When the model is far off (resonances misplaced: a time-domain error above 100 %), a
+    least-squares fit of time histories prefers a model that switches the response off over
+    one that puts part of the resonances right. The log-magnitude distance of the
+    transmissibilities does not: each channel and frequency bin (3-60 Hz, Welch H1, weighted
+    by the coherence ``g2 / (1 - g2)`` capped at 0.99) counts by its ratio. Linear systems
+    only (a nonlinear system is judged by its tangent); ``residual_vector`` has the
+    :class:`Evaluator` interface, so screening and fitting work unchanged. A system whose mass
+    matrix is not positive definite raises :class:`~exudyn_study.errors.SimulationError` (its FRF
+    exists, its time response diverges: a fit must not go there).
+    """
+
+    def __init__(self, recordings, sensor_names, nperseg: int = 4096):
+        self.recs = recordings
+        self.sensor_names = tuple(sensor_names)
+        self.idx = [np.array([self.sensor_names.index(c) for c in r.channels]) for r in recordings]
+        self.log_h, self.weight = [], []
+        k0 = 1000
+        for r in recordings:
+            sp = drive_spectra(r.drive.samples[k0:], r.measured[:, k0:], nperseg)
+            band = (sp.f >= 3.0) & (sp.f <= 60.0)
+            self.f = sp.f[band]
+            g2 = np.minimum(sp.coherence[:, band], 0.99)
+            self.log_h.append(np.log(np.abs(sp.h1[:, band]) + 1e-300))
+            self.weight.append(np.sqrt(g2 / (1.0 - g2) / np.mean(g2 / (1.0 - g2))))
+        self.n_effective = int(sum(w.size for w in self.weight))
+
+    def residual_vector(self, lin, gains=None):
+        """Coherence-weighted log-magnitude residual of the transmissibilities, flattened."""
+        from exudyn_study.errors import SimulationError
+        from exudyn_study.linear.response import frf_linear
+
+        lin = getattr(lin, "lin", lin)
+        try:  # an FRF exists for any mass matrix; a structure's is positive definite
+            np.linalg.cholesky(0.5 * (lin.mass + lin.mass.T))
+        except np.linalg.LinAlgError:
+            raise SimulationError(
+                "the model's mass matrix is not positive definite (a negative-mass compensation, e.g. a "
+                "slosh mass, takes off more than its body has there): it has no physical response"
+            ) from None
+        h = frf_linear(lin, self.f)[:, 0, :]
+        parts = []
+        for r, idx, log_h, w in zip(self.recs, self.idx, self.log_h, self.weight, strict=True):
+            hm = apply_output_frf(h[idx], gains, r.channels, self.f)
+            e = w * (np.log(np.abs(hm) + 1e-300) - log_h)
+            parts.append(e.ravel() / math.sqrt(e.size))
+        return np.concatenate(parts)
+
+
+class DistortionEvaluator:
+    """Residual of the level-dependent share of the response: measured against simulated.
+
+    For one drive at two levels (:func:`level_pair`: weaker ``a``, stronger ``b``, scale
+    ``c``) the difference ``y_b - c y_a`` of the measured responses holds only what a linear
+    structure cannot produce (:func:`distortion_shares`); the same difference of a model's
+    simulations holds only its nonlinear part. Their residual (band-limited, scaled per
+    channel as the training residual) fits a nonlinear candidate's parameters whatever linear
+    error the model still has: the linear parts cancel in both. ``residual_vector`` has the
+    :class:`Evaluator` interface (a linear system leaves the whole measured difference).
+    """
+
+    def __init__(self, pair, sensor_names, pad_s: float):
+        from exudyn_study.diagnose.rig_compare import BAND_HZ, RATE_HZ
+
+        c, a, b, n = pair
+        self.c = c
+        self.ev = Evaluator([a, b], sensor_names, pad_s, exact=True)
+        self.recs = [a, b]
+        self.rows_a = np.array([a.channels.index(ch) for ch in b.channels])
+        self.scale = b.scale
+        self.target = band_filter(b.measured[:, :n] - c * a.measured[self.rows_a, :n]) * self.scale[:, None]
+        self.n = n
+        self.n_effective = int(2 * (BAND_HZ[1] - BAND_HZ[0]) * self.target.shape[1] * 4 / RATE_HZ) * len(
+            b.channels
+        )
+
+    def residual_vector(self, system, gains=None):
+        """Residual of the measured against the simulated level-dependent share, flattened."""
+        sim_a, sim_b = self.ev.simulate_exact(system, gains)
+        model = band_filter(sim_b[:, : self.n] - self.c * sim_a[self.rows_a, : self.n]) * self.scale[:, None]
+        e = self.target - model
+        return e.ravel() / math.sqrt(e.size)
+
+
+def fit_hypothesis(h: Hypothesis, ev: Evaluator, channels, max_nfev=30, jac=None, info: dict | None = None):
+    """Fit ``h`` on ``ev`` from ``h.start``: (p, std, rss, at_bound, nfev).
+
+    ``jac``: a Jacobian callable in the fitting variable (default finite differences: one
+    evaluation per parameter and iteration); ``info`` gets the final Jacobian (``'jac'``).
+    """
+    from scipy.optimize import least_squares
+
+    pos, lo, hi = log_bounds(h)
+    x0 = np.clip(to_x(h, h.start), lo + 1e-9, hi - 1e-9)
+    r_start = safe_residual(h, ev, channels, to_params(h, x0))
+    if r_start is None:  # the candidate's system is unstable or singular at its start
+        return to_params(h, x0), np.full(x0.size, np.inf), math.inf, np.ones(x0.size, bool), 1
+    if x0.size == 0:  # nothing to fit (a swap of two channels): its residual as it stands
+        if info is not None:
+            info["jac"] = np.zeros((r_start.size, 0))
+        return np.zeros(0), np.zeros(0), float(r_start @ r_start), np.zeros(0, bool), 1
+    penalty = np.full(r_start.size, 10.0 / math.sqrt(r_start.size))
+
+    def fun(x):
+        r = safe_residual(h, ev, channels, to_params(h, x))
+        return penalty if r is None else r  # an unstable parameter set: far worse than any response
+
+    res = least_squares(
+        fun,
+        x0,
+        jac="2-point" if jac is None else jac,
+        bounds=(lo, hi),
+        diff_step=1e-3,
+        max_nfev=max_nfev,
+        x_scale=1.0,
+    )
+    if info is not None:
+        info["jac"] = res.jac
+    p = to_params(h, res.x)
+    n_eff = effective_samples(ev)
+    rss = float(2 * res.cost)
+    dof = max(1, n_eff - p.size)
+    try:
+        cov_x = np.linalg.inv(res.jac.T @ res.jac) * rss / dof
+        std_x = np.sqrt(np.maximum(np.diag(cov_x), 0.0))
+    except np.linalg.LinAlgError:
+        std_x = np.full(p.size, np.inf)
+    std_p = np.where(pos, p * std_x, std_x)
+    at_bound = (res.x <= lo + 1e-3) | (res.x >= hi - 1e-3)
+    return p, std_p, rss, at_bound, res.nfev
+
+
+def safe_residual(h: Hypothesis, ev: Evaluator, channels, p):
+    """Return the candidate's residual vector at ``p`` (None where its system is unstable or singular)."""
+    from exudyn_study.errors import SimulationError, StudyError
+
+    try:
+        with np.errstate(all="ignore"):
+            r = ev.residual_vector(h.system(p), combined_gains(h, p, channels))
+    except (SimulationError, StudyError, np.linalg.LinAlgError, ValueError):
+        return None
+    return r if np.all(np.isfinite(r)) else None
+
+
+def per_recording(ev) -> list:
+    """One evaluator per recording of ``ev`` (same residual rows as ``ev``'s part of that recording).
+
+    Returns an empty list for an evaluator that is not per recording (the level-dependent share).
+    """
+    if isinstance(ev, SpectralEvaluator):
+        return [SpectralEvaluator([r], ev.sensor_names) for r in ev.recs]
+    if not isinstance(ev, Evaluator):
+        return []
+    out = []
+    for i, r in enumerate(ev.recs):
+        sub = Evaluator([r], ev.sensor_names, ev.pad_s, exact=ev.exact)
+        sub.offset = None if ev.offset is None else [ev.offset[i]]
+        out.append(sub)
+    return out
+
+
+def decay_time(lin, factor: float = 5.0, floor_s: float = 4.0) -> float:
+    """Zero padding for the convolution: ``factor`` times the slowest decay time of the modes below 200 Hz."""
+    from exudyn_study.linear.system import state_space
+
+    a = state_space(lin)[0]
+    lam = np.linalg.eigvals(a)
+    lam = lam[(np.abs(lam) > 2 * math.pi * 0.5) & (np.abs(lam) < 2 * math.pi * 200)]
+    if lam.size == 0:
+        return floor_s
+    slowest = float(np.max(-1.0 / np.minimum(lam.real, -1e-9)))
+    return float(min(60.0, max(floor_s, factor * slowest)))
+
+
+def effective_samples(ev: Evaluator) -> int:
+    """Independent residual samples: 2 x bandwidth x duration per channel."""
+    from exudyn_study.diagnose.rig_compare import BAND_HZ, RATE_HZ
+
+    if hasattr(ev, "n_effective"):
+        return ev.n_effective
+    n = 0
+    for r in ev.recs:
+        dur = r.filtered.shape[1] * 4 / RATE_HZ
+        n += int(2 * (BAND_HZ[1] - BAND_HZ[0]) * dur) * len(r.channels)
+    return n
+
+
+def aic(rss: float, k: int, n_eff: int) -> float:
+    """Akaike information criterion of a residual sum of squares ``rss`` with ``k`` parameters."""
+    return n_eff * math.log(max(rss, 1e-300) / n_eff) + 2 * k
+
+
+def catalogue_default(physics: str, name: str) -> float:
+    """Return the catalogue default of parameter ``name`` of entry ``physics``."""
+    from exudyn_study.physics.catalogue import entry
+
+    return float(entry(physics).parameter(name).default)
+
+
+def holdout_error(ev_hold: Evaluator, system, gains) -> float:
+    """Mean over the held-out recordings of the summary error of ``system`` (``ev_hold``'s simulation).
+
+    The joint fit judges its members with the convolution (``exact=False``): a member taken
+    out at its neutral values (a joint as stiff as the catalogue allows) has modes far above
+    the band that the exact discretisation cannot always resolve (non-finite), the FRF can.
+    """
+    return float(np.mean(holdout_errors(ev_hold, system, gains)))
+
+
+def holdout_errors(ev_hold: Evaluator, system, gains) -> np.ndarray:
+    """Per held-out recording, the summary error of ``system`` (see :func:`holdout_error`)."""
+    return np.array([summary_error(e) for e in ev_hold.errors(ev_hold.simulate(system, gains))])
+
+
+def response_ratio(recs, sims) -> float:
+    """Median over channels of the band-limited rms of the simulation over that of the measurement."""
+    ratios = [
+        np.sqrt(np.mean(band_filter(s_) ** 2, axis=1)) * r.scale for r, s_ in zip(recs, sims, strict=True)
+    ]
+    return float(np.median(np.concatenate(ratios)))
+
+
+def set_offsets(evaluators, system) -> None:
+    """Carry the current model's nonlinear elements into linear candidates (first order).
+
+    With local nonlinear elements in the current model, a linear candidate's response is
+    taken as its linear response plus the current model's nonlinear correction (exact
+    nonlinear minus linear-tangent simulation, per recording): the correction's change with
+    a linear candidate is of second order. Exact simulations of the accepted model follow.
+    """
+    for ev in evaluators:
+        ev.offset = None
+        ev._cache = {}
+        if isinstance(system, NonlinearSystem):
+            nonlinear = ev.simulate_exact(system)
+            tangent = ev.simulate(system.lin)
+            ev.offset = [a - b for a, b in zip(nonlinear, tangent, strict=True)]
+            ev._cache = {("exact", id(system)): (system, nonlinear)}  # compare() needs them next
+
+
+def combined_gains(h: Hypothesis, p, channels):
+    """Return the candidate's output gains times those already found (None: all one)."""
+    base = getattr(h, "base_gains", None)
+    g = h.gains(p, channels)
+    if g is None:
+        return base
+    if base is None:
+        return g
+    if isinstance(g, np.ndarray) and isinstance(base, np.ndarray):
+        return g * base
+    return OutputChain.of(base).then(g)  # the faults found before, then this one
+
+
+def fit_per_recording(h: Hypothesis, p, firm_good, ev, channels, st, jac=None) -> dict | None:
+    """Fit ``h`` on each recording of ``ev`` alone and tell whether its parameters drift between them.
+
+    Each recording's fit starts at the pooled fit ``p``: with ``jac`` (the pooled Jacobian in the
+    fitting variable) it takes chord steps with that recording's rows of it; otherwise finite
+    differences, and (one-parameter candidates) the best point of the candidate's screening grid on
+    that recording is a second start (the lower residual wins); ``st.drift_nfev`` evaluations each.
+
+    Criterion, per parameter that is identifiable in the pooled fit (``firm_good``) and per pair of
+    recordings ``a``, ``b``: the estimates differ by more than ``st.drift_sigma`` combined standard
+    deviations and by more than ``st.drift_rel_tol`` of their value; in ``log p`` for a positive
+    parameter::
+
+        |ln p_a - ln p_b| > max(drift_sigma * sqrt((s_a / p_a)^2 + (s_b / p_b)^2), ln(1 + drift_rel_tol))
+
+    The first condition alone would reject on the small standard deviations of long records, which
+    the residual's correlation makes optimistic; the second alone would reject parameters a
+    recording barely sees.
+
+    Returns
+    -------
+    dict or None
+        ``per_recording`` (name -> list of values), ``std`` (name -> list), ``drifting`` (names) and
+        ``text``; None with fewer than two recordings or a recording the candidate cannot simulate.
+    """
+    subs = per_recording(ev)
+    if len(subs) < 2:
+        return None
+    p = np.asarray(p, dtype=float)
+    parts = [safe_residual(h, sub, channels, p) for sub in subs]
+    if any(r is None for r in parts):
+        return None
+    sizes = np.cumsum([0] + [r.size for r in parts])
+    use_jac = jac is not None and jac.shape[0] == sizes[-1]
+    start = h.start
+    estimates, stds = [], []
+    try:
+        for k, sub in enumerate(subs):
+            rows = slice(sizes[k], sizes[k + 1])
+            starts = [p]
+            if not use_jac and h.screen_grid and len(h.names) == 1:
+                # a resonance's residual has a local minimum per mode it can tune to: the recording's own
+                # best grid point is a second start (a 4 kg mass fitted from a pooled 13 kg stays there)
+                grid = [np.atleast_1d(np.asarray(g, dtype=float)) for g in h.screen_grid]
+                grid = [g for g in grid if g.size == p.size]
+                rss = [safe_residual(h, sub, channels, g) for g in grid]
+                rss = [math.inf if r is None else float(r @ r) for r in rss]
+                if grid and math.isfinite(min(rss)):
+                    starts.append(grid[int(np.argmin(rss))])
+            best = None
+            for p_start in starts:
+                h.start = np.clip(p_start, h.lower, h.upper)
+                p_k, s_k, rss_k, _, _ = fit_hypothesis(
+                    h, sub, channels, st.drift_nfev, jac=(lambda x, j=jac[rows]: j) if use_jac else None
+                )
+                if best is None or rss_k < best[2]:
+                    best = (p_k, s_k, rss_k)
+            estimates.append(best[0])
+            stds.append(best[1])
+    finally:
+        h.start = start
+    est, sd = np.array(estimates), np.array(stds)
+    drifting = []
+    for j, name in enumerate(h.names):
+        if not firm_good[j]:
+            continue
+        for a in range(len(subs)):
+            for b in range(a + 1, len(subs)):
+                pa, pb, sa, sb = est[a, j], est[b, j], sd[a, j], sd[b, j]
+                if not (np.isfinite(sa) and np.isfinite(sb)):
+                    continue
+                if pa > 0 and pb > 0:
+                    d, sigma = abs(math.log(pa / pb)), math.hypot(sa / pa, sb / pb)
+                    tol = math.log1p(st.drift_rel_tol)
+                else:
+                    ref = max(abs(pa), abs(pb), 1e-300)
+                    d, sigma, tol = abs(pa - pb) / ref, math.hypot(sa, sb) / ref, st.drift_rel_tol
+                if d > max(st.drift_sigma * sigma, tol) and name not in drifting:
+                    drifting.append(name)
+    text = "; ".join(
+        f"{n}: " + ", ".join(f"{v:.3g} +- {e:.2g}" for v, e in zip(est[:, j], sd[:, j], strict=True))
+        for j, n in enumerate(h.names)
+        if n in drifting
+    )
+    return {
+        "per_recording": {n: est[:, j].tolist() for j, n in enumerate(h.names)},
+        "std": {n: sd[:, j].tolist() for j, n in enumerate(h.names)},
+        "drifting": drifting,
+        "text": text,
+    }

@@ -1,0 +1,260 @@
+"""Explain: findings and what is left, in plain language and as JSON blocks; the report's figures.
+
+A stage of :func:`~exudyn_study.diagnose.rig.diagnose_rig`: :func:`make_finding` turns a fitted
+hypothesis into a :class:`~exudyn_study.diagnose.schema.Finding` (a parameter at its bound
+flagged), :func:`explain` writes its text (a registered ``explain`` callable, else the values and
+the modes it moved), :func:`unexplained_entry` describes the significant residual that is left.
+"""
+
+from __future__ import annotations
+
+import math
+
+import numpy as np
+
+from exudyn_study.diagnose.rig_candidates import RIG_CANDIDATES, ExplainContext, sensor_component
+from exudyn_study.diagnose.rig_compare import BANDS_HZ, drive_spectra
+from exudyn_study.diagnose.rig_hypotheses import Hypothesis, apply_output_frf
+from exudyn_study.diagnose.schema import Finding
+
+
+def recording_label(name) -> str:
+    """Return a recording's label in the JSON and the report: its file name (else the name as given)."""
+    return str(name).rsplit("/", 1)[-1]
+
+
+def make_finding(
+    h, p, std, at_bound, flags, band_hz, level_dependent, explanation, fit, place=None
+) -> Finding:
+    """Return the :class:`Finding` of hypothesis ``h`` at ``p``; a parameter at its bound is flagged.
+
+    ``place``: optional location keys of a finding at a point (``position_m``, ``nearest_sensor``).
+    """
+    params = {
+        n: {"value": float(v), "unit": u, "std": float(s_), "at_bound": bool(b)}
+        for n, v, u, s_, b in zip(h.names, p, h.units, std, at_bound, strict=True)
+    }
+    bound = [
+        f"{n} ended at its bound ({v['value']:.3g} {v['unit']}): the data do not determine it"
+        for n, v in params.items()
+        if v["at_bound"]
+    ]
+    return Finding(
+        physics=h.physics,
+        location={
+            "sensors": list(h.sensors),
+            "component": h.component,
+            "interface": h.interface,
+            **(place or {}),
+        },
+        band_hz=band_hz,
+        level_dependent=level_dependent,
+        explanation=explanation,
+        parameters=params,
+        fit=fit,
+        flags=tuple(bound) + tuple(flags),
+    )
+
+
+def point_of(h, markers) -> dict:
+    """Return ``position_m`` and ``nearest_sensor`` of a hypothesis at a point (empty if not at one).
+
+    ``markers``: location -> (marker, global position) of the model (sensors and interfaces).
+    """
+    if getattr(h, "position_m", None) is not None:  # a mesh-node place of the structure screen
+        pos = np.asarray(h.position_m, dtype=float)
+    elif isinstance(h.location, str) and h.location in markers:
+        pos = np.asarray(markers[h.location][1], dtype=float)
+    else:
+        return {}
+    sensors = [k for k in markers if sensor_component(k) is not None or "." not in k]
+    nearest = min(sensors, key=lambda k: float(np.linalg.norm(np.asarray(markers[k][1]) - pos)), default=None)
+    out = {"position_m": [round(float(v), 4) for v in pos]}
+    if nearest is not None:
+        out["nearest_sensor"] = nearest
+    return out
+
+
+def explain_local_element(h, p, std, place: dict, closest) -> str:
+    """Explain the generic local element: outside the catalogue, where, and the closest catalogue candidates.
+
+    ``closest``: (label, share of the residual explained at screening) of the round's best catalogue
+    candidates.
+    """
+    k, c = (float(v) for v in p)
+    sk, sc = (float(v) for v in std)
+    where = h.location
+    if place.get("position_m"):
+        x, y, z = place["position_m"]
+        where += f" ({x:.3f}, {y:.3f}, {z:.3f}) m, on {h.component or '?'}, nearest sensor "
+        where += str(place.get("nearest_sensor"))
+    near = ", ".join(f"{lab} ({100 * share:.0f} % of the residual)" for lab, share in closest[:3])
+    return (
+        f"A local dynamic stiffness to ground of {k:.3g} +- {sk:.2g} N/m and {c:.3g} +- {sc:.2g} N s/m at "
+        f"{where}: not in the catalogue (no catalogue candidate explains as much); closest entries: "
+        f"{near or 'none'}."
+    )
+
+
+def modes_hz(lin):
+    """Undamped natural frequencies of ``lin`` (its linear tangent), Hz."""
+    import scipy.linalg as sla
+
+    lin = getattr(lin, "lin", lin)  # a NonlinearSystem: its linear tangent
+    w2 = sla.eigh(lin.stiffness, lin.mass, eigvals_only=True)
+    return np.sqrt(np.maximum(w2, 0.0)) / (2 * math.pi)
+
+
+def shifted_modes(lin0, lin1, f_max=60.0):
+    """Return the three modes below ``f_max`` that moved most from ``lin0`` to ``lin1`` and the new ones."""
+    f0, f1 = modes_hz(lin0), modes_hz(lin1)
+    f0, f1 = f0[(f0 > 1.0) & (f0 < f_max)], f1[(f1 > 1.0) & (f1 < f_max)]
+    pairs = []
+    for a in f0:
+        b = f1[np.argmin(np.abs(f1 - a))] if f1.size else a
+        pairs.append((a, b))
+    pairs.sort(key=lambda ab: -abs(ab[1] - ab[0]) / ab[0])
+    new = [b for b in f1 if f0.size == 0 or np.min(np.abs(f0 - b)) / b > 0.03]
+    return pairs[:3], new
+
+
+def explain(h: Hypothesis, p, std, lin0, lin1, located) -> str:
+    """Plain-language explanation of a finding: its registered ``explain`` callable, else a generic text."""
+    v = {n: (float(a), float(s)) for n, a, s in zip(h.names, p, std, strict=True)}
+    pairs, new = shifted_modes(lin0, lin1)
+    shifts = ", ".join(f"{a:.2f} -> {b:.2f} Hz" for a, b in pairs if abs(b - a) > 0.005)
+    where = ", ".join(located[:6]) + (", ..." if len(located) > 6 else "")
+    if h.physics == "local_element":  # the generic element: no registered candidate
+        return explain_local_element(h, p, std, getattr(h, "place", {}), getattr(h, "closest", ()))
+    cand = RIG_CANDIDATES.get(h.physics)
+    if cand is not None and cand.explain is not None:
+        return str(cand.explain(h, v, ExplainContext(shifts=shifts, new_modes_hz=tuple(new), where=where)))
+    values = ", ".join(f"{n} = {a:.3g} +- {s:.2g}" for n, (a, s) in v.items())
+    return f"{h.physics} at {h.location}: {values} ({shifts})."
+
+
+#: the carriers of an unexplained residual hold this share of its coherent energy
+CARRIER_SHARE = 0.8
+
+
+def residual_carriers(cells, maps, share: float = CARRIER_SHARE) -> tuple:
+    """Return the smallest set of channels and the narrowest band holding ``share`` of the residual.
+
+    The coherent residual energy of a significant cell is its effect squared (largest over the
+    recordings, :class:`~exudyn_study.diagnose.rig_compare.SignificanceMap`); channels are taken
+    strongest first until they hold ``share`` of it, then the narrowest run of bands holding
+    ``share`` of those channels' energy.
+
+    Returns
+    -------
+    tuple
+        ``(rows, (first band, last band))``: channel indices, strongest first, and band indices.
+    """
+    w = np.max([np.where(m.significant, m.effect, 0.0) ** 2 for m in maps], axis=0) * cells
+    per_channel = w.sum(axis=1)
+    order = [int(i) for i in np.argsort(-per_channel) if per_channel[i] > 0]
+    total = float(per_channel.sum())
+    rows, held = [], 0.0
+    for i in order:
+        rows.append(i)
+        held += float(per_channel[i])
+        if held >= share * total:
+            break
+    per_band = w[rows].sum(axis=0)
+    need, best = share * float(per_band.sum()), (0, len(per_band) - 1)
+    for j0 in range(len(per_band)):
+        for j1 in range(j0, len(per_band)):
+            if per_band[j0 : j1 + 1].sum() >= need:
+                if j1 - j0 < best[1] - best[0]:
+                    best = (j0, j1)
+                break
+    return rows, best
+
+
+def unexplained_entry(cells, channels, level_dependent, text, maps=None, best_places=()):
+    """Return the JSON entry of the significant residual ``cells`` (channel x band) left unexplained.
+
+    With ``maps`` (the significance maps of the recordings) the entry names the smallest set of
+    sensors and the band that carry :data:`CARRIER_SHARE` of the residual (:func:`residual_carriers`),
+    all significant sensors besides; ``best_places``: (label, share explained) of the best candidates
+    the last screening found, named in the text.
+    """
+    rows = np.flatnonzero(cells.any(axis=1))
+    cols = np.flatnonzero(cells.any(axis=0))
+    sensors = [channels[i] for i in rows]
+    band = [BANDS_HZ[cols[0]][0], BANDS_HZ[cols[-1]][1]]
+    carriers = sensors
+    if maps is not None:
+        idx, (j0, j1) = residual_carriers(cells, maps)
+        carriers, band = [channels[i] for i in idx], [BANDS_HZ[j0][0], BANDS_HZ[j1][1]]
+    comps = sorted({sensor_component(s) or "?" for s in carriers})
+    where = f"{', '.join(carriers[:8])}{', ...' if len(carriers) > 8 else ''}"
+    text_all = (
+        f" ({100 * CARRIER_SHARE:.0f} % of it; significant at {len(sensors)} sensor(s) in "
+        f"{BANDS_HZ[cols[0]][0]:g}-{BANDS_HZ[cols[-1]][1]:g} Hz)"
+        if maps is not None
+        else ""
+    )
+    places = (
+        "; best places the screen found: "
+        + ", ".join(f"{lab} ({100 * sh:.0f} % of the residual)" for lab, sh in best_places[:3])
+        if best_places
+        else ""
+    )
+    return {
+        "location": {
+            "sensors": carriers,
+            "component": comps[0] if len(comps) == 1 else None,
+            "interface": None,
+        },
+        "band_hz": band,
+        "level_dependent": bool(level_dependent),
+        "all_sensors": sensors,
+        "best_places": [{"candidate": lab, "share": round(float(sh), 4)} for lab, sh in best_places[:3]],
+        "explanation": f"significant residual carried by {len(carriers)} sensor(s) ({where}) in "
+        f"{band[0]:g}-{band[1]:g} Hz{text_all}{places}; {text}",
+    }
+
+
+def model_transmissibility(lin, freq, channels, sensor_names, gains=None):
+    """Model transmissibility (sensor acceleration / drive acceleration) at ``freq``, (n_channels, n_f)."""
+    from exudyn_study.linear.response import frf_linear
+
+    idx = [list(sensor_names).index(c) for c in channels]
+    lin = getattr(lin, "lin", lin)  # a NonlinearSystem: its linear tangent (the figure says so)
+    w2 = (2 * np.pi * np.asarray(freq)) ** 2
+    h = frf_linear(lin, freq)[idx, 0, :] / (-w2[None, :])
+    return apply_output_frf(h, gains, channels, freq)
+
+
+def figures_before(figures, named, recs, sims, lin0, sensor_names, maps):
+    """Residual map (model error power / noise power per bin), measured and nominal transmissibilities."""
+    k0 = 1000
+    labels = [recording_label(n) for n, _ in named]
+    rmaps, measured, levels = [], {}, []
+    freq = None
+    for lab, r, s in zip(labels, recs, sims, strict=True):
+        u = r.drive.samples[k0:]
+        res = drive_spectra(u, (r.measured - s)[:, k0:])
+        meas = drive_spectra(u, r.measured[:, k0:])
+        f = res.f
+        band = (f >= 3.0) & (f <= 60.0)
+        g2 = res.coherence
+        rmaps.append((g2 / (1.0 - g2))[:, band])
+        w2 = (2 * np.pi * f[band]) ** 2
+        measured[lab] = meas.h1[:, band] / (-w2[None, :])
+        freq = f[band]
+        levels.append(float(np.std(np.gradient(np.gradient(u, 1e-3), 1e-3))))
+    figures.update(
+        channels=list(recs[0].channels),
+        freq_hz=freq,
+        labels=labels,
+        levels=levels,
+        residual_map=np.array(rmaps),
+        bands_hz=[list(b) for b in BANDS_HZ],
+        measured=measured,
+    )
+    figures["nominal_T"] = {
+        lab: model_transmissibility(lin0, freq, r.channels, sensor_names)
+        for lab, r in zip(labels, recs, strict=True)
+    }

@@ -1,0 +1,254 @@
+"""Search the whole structure: every place of the flexible bodies screened by a low-rank update.
+
+Part of the locate stage of :func:`~exudyn_study.diagnose.rig.diagnose_rig`. A point mass, a spring
+or a damper to ground at one point changes the linearised system by a rank-3 term: with ``U = N P^T``
+(``P`` the point's displacement map, ``N`` the null space of the constraints; shape (n, 3)) and the
+point's drive motion ``a = P r``, the local element of dynamic stiffness ``-mu(omega)``,
+``mu = omega^2 m - k - i omega c``, changes ``D(omega) z = F(omega) u`` by ``-mu U U^T`` and its
+forcing by ``mu U a``. Sherman-Morrison-Woodbury gives the change of the sensor accelerations
+without a new eigen-solve or factorisation::
+
+    w = (I - mu U^T D^-1 U)^-1 (U^T z0 + a)        (the point's total displacement, 3)
+    dy = -omega^2 mu (S N^T D^-1 U) w             (S: the sensors' displacement map)
+
+``D^-1 = L diag(1 / (i omega - lambda)) R`` from one complex eigen-decomposition of the state-space
+matrix, so a place costs two small products per frequency: thousands of places in seconds.
+:func:`screen_places` scores each place and element against the measured transmissibilities
+(the coherence-weighted log-magnitude residual of
+:class:`~exudyn_study.diagnose.rig_evaluate.SpectralEvaluator`).
+"""
+
+from __future__ import annotations
+
+import math
+from dataclasses import dataclass
+
+import numpy as np
+
+__all__ = ["Places", "structure_places", "LocalSensitivity", "screen_places", "PLACE_SPACING_M"]
+
+#: candidate places: one mesh node per cube of this edge (m) on every flexible body but the foundation
+#: (with the sensors' nodes)
+PLACE_SPACING_M = 0.15
+
+
+@dataclass(frozen=True)
+class Places:
+    """Candidate places of local elements.
+
+    Attributes
+    ----------
+    names : tuple of str
+        Location names the catalogue's point entries accept (a sensor, or ``'body#node'``).
+    positions : numpy.ndarray
+        Global positions (m), shape (n_places, 3).
+    bodies : tuple of str
+        The body of each place.
+    maps : tuple of numpy.ndarray
+        Each place's displacement map on the model's ODE2 coordinates, shape (3, n_q).
+    """
+
+    names: tuple
+    positions: np.ndarray
+    bodies: tuple
+    maps: tuple
+
+
+def structure_places(model, spacing_m: float = PLACE_SPACING_M, skip=("rear_foundation",)) -> Places:
+    """Return every sensor's node and one mesh node per ``spacing_m`` cube of every flexible body.
+
+    The model is assembled. Per cube the node nearest the centroid of the body's nodes in it; bodies
+    in ``skip`` are left out (the rig's foundation is not the specimen). A sensor's place is named by
+    the sensor (one per point: the first sensor there).
+    """
+    from exudyn_study.model.linearisation import body_displacement_map
+
+    n_q = int(model.mbs.systemData.ODE2Size())
+    names, positions, bodies, maps = [], [], [], []
+    for name, att in model.sensors.items():
+        handle = model.bodies[att.body]
+        pos = np.asarray(handle.body.node_positions_m[att.node], dtype=float) + np.asarray(handle.position_m)
+        if any(np.linalg.norm(pos - q) < 1e-6 for q in positions):
+            continue
+        idx, mat = body_displacement_map(model, att.body, np.array([att.node]))
+        full = np.zeros((3, n_q))
+        full[:, idx] = mat
+        names.append(name)
+        positions.append(pos)
+        bodies.append(att.body)
+        maps.append(full)
+    for b, handle in model.bodies.items():
+        if b in skip:
+            continue
+        x = np.asarray(handle.body.node_positions_m, dtype=float) + np.asarray(handle.position_m, dtype=float)
+        cells = np.floor(x / spacing_m).astype(int)
+        _, first, inverse = np.unique(cells, axis=0, return_index=True, return_inverse=True)
+        for c in range(first.size):
+            members = np.flatnonzero(inverse.ravel() == c)
+            centre = x[members].mean(axis=0)
+            node = int(members[np.argmin(np.linalg.norm(x[members] - centre, axis=1))])
+            idx, mat = body_displacement_map(model, b, np.array([node]))
+            full = np.zeros((3, n_q))
+            full[:, idx] = mat
+            names.append(f"{b}#{node}")
+            positions.append(x[node])
+            bodies.append(b)
+            maps.append(full)
+    return Places(tuple(names), np.array(positions).reshape(-1, 3), tuple(bodies), tuple(maps))
+
+
+class LocalSensitivity:
+    """The nominal FRFs and what a local element at a place changes in them (see the module docstring).
+
+    Parameters
+    ----------
+    lin : LinearSystem
+        The current model's linearisation.
+    freq_hz : numpy.ndarray
+        Frequencies (Hz), shape (n_f,).
+    rows : sequence of int
+        Sensor indices (rows of ``lin.sensor_map``) of the recorded channels.
+    """
+
+    def __init__(self, lin, freq_hz, rows):
+        import scipy.linalg as sla
+
+        from exudyn_study.linear.response import frf_linear
+
+        self.f = np.asarray(freq_hz, dtype=float)
+        self.omega = 2.0 * math.pi * self.f
+        n = lin.mass.shape[0]
+        minv = np.linalg.inv(lin.mass)
+        a = np.block([[np.zeros((n, n)), np.eye(n)], [-minv @ lin.stiffness, -minv @ lin.damping]])
+        lam, v = sla.eig(a)
+        vinv = np.linalg.inv(v)
+        self.left = v[:n, :]  # D^-1 = left diag(1 / (s - lam)) right
+        self.right = vinv[:, n:] @ minv
+        self.pole = 1.0 / (1j * self.omega[None, :] - lam[:, None])  # (2n, n_f)
+        s = 1j * self.omega
+        force = -(lin.b0[:, None] + s[None, :] * lin.b1[:, None] + (s**2)[None, :] * lin.b2[:, None])
+        self.z0 = self.left @ (self.pole * (self.right @ force))  # (n, n_f)
+        self.null = lin.nullspace
+        self.drive = lin.drive_shape
+        self.sensor_left = lin.sensor_map[list(rows)] @ self.null.T @ self.left  # (n_s, 2n)
+        self.h0 = frf_linear(lin, self.f)[list(rows), 0, :]
+
+    def at(self, place_map: np.ndarray) -> tuple:
+        """Return what a place contributes independently of the element: ``(U^T D^-1 U, S N^T D^-1 U, c)``."""
+        u = self.null @ place_map.T  # (n, 3)
+        ul, ru = u.T @ self.left, self.right @ u  # (3, 2n), (2n, 3)
+        n_f, n_s = self.pole.shape[1], self.sensor_left.shape[0]
+        # sums over the modes k as one product each: (pairs, k) @ (k, n_f)
+        outer_a = (ul[:, None, :] * ru.T[None, :, :]).reshape(9, -1)
+        a_mat = (outer_a @ self.pole).reshape(3, 3, n_f).transpose(2, 0, 1)
+        outer_b = (self.sensor_left[:, None, :] * ru.T[None, :, :]).reshape(3 * n_s, -1)
+        b_mat = (outer_b @ self.pole).reshape(n_s, 3, n_f).transpose(2, 0, 1)
+        c_vec = (u.T @ self.z0).T + (place_map @ self.drive)[None, :]  # (n_f, 3)
+        return a_mat, b_mat, c_vec
+
+    def frf(self, place, mu: np.ndarray) -> np.ndarray:
+        """Return the FRFs with a local element of ``mu(omega)`` at a place, shape (n_s, n_f).
+
+        ``place``: the place's displacement map (3, n_q) or what :meth:`at` returned for it; ``mu``
+        shape (n_f,), or (n_elements, n_f) for several elements at once (then (n_elements, n_s, n_f)).
+        """
+        a_mat, b_mat, c_vec = self.at(place) if isinstance(place, np.ndarray) else place
+        mu = np.asarray(mu)
+        batch = mu.ndim == 2
+        mu = np.atleast_2d(mu)  # (g, n_f)
+        lhs = np.eye(3)[None, None] - mu[:, :, None, None] * a_mat[None]
+        w = np.linalg.solve(lhs, np.broadcast_to(c_vec, lhs.shape[:2] + (3,))[..., None])[..., 0]
+        dy = -(self.omega[None, :] ** 2 * mu)[:, :, None] * np.einsum("fsj,gfj->gfs", b_mat, w)
+        out = self.h0[None] + np.transpose(dy, (0, 2, 1))
+        return out if batch else out[0]
+
+
+def element_mu(
+    omega: np.ndarray,
+    mass_kg=0.0,
+    stiffness_n_per_m=0.0,
+    damping_n_s_per_m=0.0,
+    frequency_hz=None,
+    damping_ratio=0.0,
+) -> np.ndarray:
+    """Return ``mu(omega)`` of a local element at a point.
+
+    A point mass and a spring-damper to ground: ``mu = omega^2 m - k - i omega c``. With
+    ``frequency_hz``, a tuned mass-damper instead (``mass_kg`` on a spring-damper of that tuning and
+    ``damping_ratio``; its own coordinates condensed): ``mu = omega^2 m z / (z - omega^2 m)`` with
+    ``z = k_t + i omega c_t``, which tends to the point mass's ``omega^2 m`` for a stiff spring.
+    """
+    if frequency_hz is not None:
+        w_t = 2.0 * math.pi * frequency_hz
+        z = mass_kg * w_t**2 + 1j * omega * 2.0 * damping_ratio * mass_kg * w_t
+        return omega**2 * mass_kg * z / (z - omega**2 * mass_kg)
+    return omega**2 * mass_kg - stiffness_n_per_m - 1j * omega * damping_n_s_per_m
+
+
+#: elements screened at every place: kind -> list of parameter sets (a coarse grid)
+SCREEN_ELEMENTS = {
+    "added_mass": [{"mass_kg": m} for m in (2.0, 5.0, 12.0, 30.0)],
+    "local_element": [
+        {"stiffness_n_per_m": k, "damping_n_s_per_m": c} for k in (0.0, 1e5, 1e6) for c in (300.0, 3e3)
+    ],
+}
+
+
+def screen_places(lin, places: Places, ev_spectral, gains=None, elements=None) -> list:
+    """Score a local element at every place against the measured transmissibilities.
+
+    Parameters
+    ----------
+    lin : LinearSystem
+        The current model.
+    places : Places
+    ev_spectral : SpectralEvaluator
+        Its frequencies, the measured log transmissibilities and weights (one or more recordings).
+    gains : numpy.ndarray or OutputChain, optional
+        The output gains found so far.
+    elements : dict, optional
+        Kind -> parameter sets (default :data:`SCREEN_ELEMENTS`).
+
+    Returns
+    -------
+    list of dict
+        Per place and kind, the best parameter set: ``place``, ``position_m``, ``kind``, ``values``,
+        ``share`` (of the current residual it removes); best first.
+    """
+    from exudyn_study.diagnose.rig_hypotheses import apply_output_frf
+
+    elements = elements or SCREEN_ELEMENTS
+    rec = ev_spectral.recs[0]
+    rows = [list(lin.sensor_names).index(c) for c in rec.channels]
+    sens = LocalSensitivity(lin, ev_spectral.f, rows)
+
+    def rss(h):  # h (g, n_s, n_f) -> (g,)
+        total = np.zeros(h.shape[0])
+        for r, log_h, w in zip(ev_spectral.recs, ev_spectral.log_h, ev_spectral.weight, strict=True):
+            hm = np.array([apply_output_frf(x, gains, r.channels, ev_spectral.f) for x in h])
+            e = w[None] * (np.log(np.abs(hm) + 1e-300) - log_h[None])
+            total += np.sum(e**2, axis=(1, 2)) / e[0].size
+        return total
+
+    rss0 = float(rss(sens.h0[None])[0])
+    mus = {kind: np.array([element_mu(sens.omega, **v) for v in grid]) for kind, grid in elements.items()}
+    out = []
+    for name, pos, p_map in zip(places.names, places.positions, places.maps, strict=True):
+        prep = sens.at(p_map)
+        for kind, grid in elements.items():
+            with np.errstate(all="ignore"):
+                values = rss(sens.frf(prep, mus[kind]))
+            values = np.where(np.isfinite(values), values, np.inf)
+            k = int(np.argmin(values))
+            if np.isfinite(values[k]):
+                out.append(
+                    {
+                        "place": name,
+                        "position_m": [float(v) for v in pos],
+                        "kind": kind,
+                        "values": dict(grid[k]),
+                        "share": max(0.0, 1.0 - float(values[k]) / rss0) if rss0 > 0 else 0.0,
+                    }
+                )
+    out.sort(key=lambda d: -d["share"])
+    return out

@@ -1,0 +1,203 @@
+"""Screen: every candidate of the registry at every place, scored by the share of the residual it explains.
+
+A stage of :func:`~exudyn_study.diagnose.rig.diagnose_rig`: :func:`screen` asks each registered
+candidate (:mod:`~exudyn_study.diagnose.rig_candidates`) for its hypotheses in this round and scores
+each on a short record (:func:`screen_score`); the result is a
+:class:`~exudyn_study.diagnose.rig_state.Screening` whose best candidates the fit stage fits.
+"""
+
+from __future__ import annotations
+
+import math
+
+import numpy as np
+
+from exudyn_study.diagnose.rig_candidates import RIG_CANDIDATES, CandidateContext
+from exudyn_study.diagnose.rig_compare import summary_error
+from exudyn_study.diagnose.rig_evaluate import Evaluator, fit_hypothesis, safe_residual
+from exudyn_study.diagnose.rig_hypotheses import Hypothesis
+from exudyn_study.diagnose.rig_state import Comparison, Location, ModelState, RigProblem, Screening
+from exudyn_study.errors import InputError
+
+
+def hypotheses_of(cand, ctx) -> list:
+    """Return the hypotheses of registered candidate ``cand`` in the round ``ctx`` (checked)."""
+    made = list(cand.factory(ctx) or [])
+    for h in made:
+        if not isinstance(h, Hypothesis):
+            raise InputError(
+                f"rig candidate {cand.physics!r}: its factory returned {h!r}; expected Hypothesis "
+                "objects (exudyn_study.diagnose.rig_hypotheses)"
+            )
+    return made
+
+
+def screen_score(h: Hypothesis, ev: Evaluator, channels, r0: np.ndarray, nfev: int = 6) -> float:
+    """Share of the training residual the candidate explains at its best screening value (0-1).
+
+    A candidate with a :attr:`~exudyn_study.diagnose.rig_hypotheses.Hypothesis.screen_grid`
+    is evaluated on it (scalars: values of its one parameter, refined by a parabola in the
+    log parameter through the best point and its neighbours; tuples: whole parameter
+    vectors, a linear candidate then refined by a short fit from the best of them: a
+    resonator's residual has a local minimum per mode it can tune to). Otherwise a short
+    least-squares fit (``nfev`` evaluations) on the screening recording scores it. The best
+    value becomes the start of the full fit.
+    """
+    rss0 = float(r0 @ r0)
+    if rss0 <= 0:
+        return 0.0
+
+    def rss(p):
+        r = safe_residual(h, ev, channels, p)
+        return math.inf if r is None else float(r @ r)
+
+    grid = h.screen_grid
+    if grid is None:
+        p, _, value, _, _ = fit_hypothesis(h, ev, channels, nfev)
+        h.start = np.clip(p, h.lower, h.upper)
+        return max(0.0, 1.0 - value / rss0)
+    points = [np.atleast_1d(np.asarray(g, dtype=float)) for g in grid]
+    vals = [rss(p) for p in points]
+    k = int(np.argmin(vals))
+    best, h.start = vals[k], points[k]
+    if len(h.names) > 1 and h.kind_linear:
+        # several parameters: a short fit from the best grid point
+        p, _, value, _, _ = fit_hypothesis(h, ev, channels, nfev)
+        if value < best:
+            best, h.start = value, np.clip(p, h.lower, h.upper)
+        return max(0.0, 1.0 - best / rss0)
+    if len(h.names) == 1 and 0 < k < len(grid) - 1 and all(float(p[0]) > 0 for p in points):
+        xs = np.log([float(p[0]) for p in points])
+        a, b, c = vals[k - 1], vals[k], vals[k + 1]
+        x0, x1, x2 = xs[k - 1], xs[k], xs[k + 1]
+        denom = (x0 - x1) * (x0 - x2) * (x1 - x2)
+        if denom != 0:
+            A = (x2 * (b - a) + x1 * (a - c) + x0 * (c - b)) / denom
+            B = (x2**2 * (a - b) + x1**2 * (c - a) + x0**2 * (b - c)) / denom
+            if A > 0 and x0 < -B / (2 * A) < x2:
+                v = np.array([float(np.exp(-B / (2 * A)))])
+                value = rss(v)
+                if value < best:
+                    best, h.start = value, v
+    return max(0.0, 1.0 - best / rss0)
+
+
+def candidate_context(
+    problem: RigProblem, state: ModelState, location: Location, done, comparison: Comparison | None = None
+) -> CandidateContext:
+    """Return what the candidate factories may use in this round (:class:`CandidateContext`)."""
+    best_places = []
+    if problem.settings.place_screen:
+        import time
+
+        from exudyn_study.diagnose.rig_places import screen_places, structure_places
+
+        t0 = time.perf_counter()
+        places = structure_places(state.model, problem.settings.place_spacing_m)
+        best_places = screen_places(state.lin, places, problem.ev_spectral, state.gains)
+        problem.say(
+            f"screened a point mass and a spring-damper to ground at {len(places.names)} places of the "
+            f"structure in {time.perf_counter() - t0:.1f} s"
+        )
+    return CandidateContext(
+        model=state.model,
+        lin=state.lin,
+        build=state.builder(problem),
+        locations=list(state.locations),
+        markers=state.markers,
+        sensor_names=problem.sensor_names,
+        located=list(location.located),
+        level_dependent=location.level_dependent,
+        done=set(done),
+        say=problem.say,
+        nonlinear_sensors=list(location.nonlinear_sensors),
+        channels=tuple(problem.channels),
+        measured_peak=measured_peaks(problem),
+        best_places=best_places,
+        residual_share=residual_shares(problem, comparison) if comparison is not None else {},
+    )
+
+
+def residual_shares(problem: RigProblem, comparison: Comparison) -> dict:
+    """Return channel -> its share of the training residual (squared relative errors, over recordings)."""
+    errs = np.mean([e**2 for e in problem.ev_train.errors(comparison.sims_tr)], axis=0)
+    total = float(np.sum(errs))
+    return {c: float(v) / total if total > 0 else 0.0 for c, v in zip(problem.channels, errs, strict=True)}
+
+
+def measured_peaks(problem: RigProblem) -> dict:
+    """Return channel -> largest magnitude over the training recordings (m/s^2)."""
+    peaks = np.max([np.max(np.abs(r.measured), axis=1) for r in problem.train_recs], axis=0)
+    return {c: float(v) for c, v in zip(problem.channels, peaks, strict=True)}
+
+
+def screen(
+    problem: RigProblem, state: ModelState, comparison: Comparison, location: Location, done, round_no: int
+):
+    """Collect this round's candidates and score each; None when no candidate applies.
+
+    Simulated (nonlinear) candidates are deferred to the level-dependent share when the training
+    data hold one drive at two levels (``problem.ev_distortion``); a candidate that needs level
+    dependence is asked only when the mismatch has it. Far off (training error above
+    ``spectral_above_error``) only linear candidates are screened, on log transmissibilities.
+
+    Returns
+    -------
+    Screening or None
+    """
+    st, say = problem.settings, problem.say
+    ctx = candidate_context(problem, state, location, done, comparison)
+    hyps: list[Hypothesis] = []
+    deferred = []  # simulated candidates judged on the level-dependent share if no linear one fits
+    for cand in list(RIG_CANDIDATES.values()):
+        if not problem.wants(cand.physics):
+            continue
+        if problem.ev_distortion is not None and cand.kind == "simulated":
+            if location.level_dependent or ctx.nonlinear_sensors:
+                deferred.append(cand)
+            continue
+        if cand.needs_level_dependence and not location.level_dependent:
+            continue
+        hyps += hypotheses_of(cand, ctx)
+    if not hyps and not deferred:
+        return None
+    for h in hyps:
+        h.base_gains = state.gains
+    # far off (error > 100 %: resonances misplaced): judge and fit on log transmissibilities
+    error_now = float(np.mean([summary_error(e) for e in problem.ev_train.errors(comparison.sims_tr)]))
+    spectral = error_now > st.spectral_above_error
+    if spectral:
+        hyps = [h for h in hyps if h.kind_linear]
+    ev_fit = problem.ev_spectral if spectral else problem.ev_train
+    ev_scr = problem.ev_spectral if spectral else problem.ev_screen
+    say(
+        f"round {round_no + 1}: screening {len(hyps)} candidates"
+        + (f" on log transmissibilities (training error {error_now:.2f})" if spectral else "")
+    )
+    r0 = ev_fit.residual_vector(state.lin, state.gains)
+    r0_screen = ev_scr.residual_vector(state.lin, state.gains)
+    # acquisition faults on the time histories in any round (Screening.judged_on)
+    r0_time_screen = problem.ev_screen.residual_vector(state.lin, state.gains) if spectral else r0_screen
+    scores = [
+        screen_score(h, problem.ev_screen, problem.channels, r0_time_screen, st.screen_nfev)
+        if spectral and h.carry == "gains"
+        else screen_score(h, ev_scr, problem.channels, r0_screen, st.screen_nfev)
+        for h in hyps
+    ]
+    order = [
+        i
+        for i in np.argsort(scores)[::-1]
+        if scores[i] > 0 and scores[i] >= st.min_screen_share * max(scores, default=0.0)
+    ]
+    return Screening(
+        ctx=ctx,
+        hyps=tuple(hyps),
+        scores=tuple(float(s) for s in scores),
+        order=tuple(int(i) for i in order),
+        deferred=tuple(deferred),
+        spectral=spectral,
+        ev_fit=ev_fit,
+        rss0=float(r0 @ r0),
+        rss0_time=float(np.sum(problem.ev_train.residual_vector(state.lin, state.gains) ** 2)),
+        ev_time=problem.ev_train,
+    )

@@ -1,0 +1,124 @@
+"""Sensor faults on the rig path: each is named as such, with its channel, on the mini frame.
+
+The faults themselves (:class:`~exudyn_study.physics.sensor_faults.SensorFault`) are checked against
+their definitions first: a delay is the linear phase of its FRF, a swap exchanges two rows, and the
+time and frequency forms agree.
+"""
+
+from __future__ import annotations
+
+import sys
+from pathlib import Path
+
+import numpy as np
+import pytest
+
+from exudyn_study.errors import InputError
+from exudyn_study.physics.sensor_faults import SensorFault
+from exudyn_study.virtual_rig import Augment, Scenario, virtual_recording
+
+sys.path.insert(0, str(Path(__file__).resolve().parents[1]))
+from rig_fixtures import FRAME_SENSORS, mini_bodies  # noqa: E402
+
+DURATION_S = 16.0
+RATE_HZ = 1000.0
+NAMES = ("A", "B", "C")
+
+
+def _signals(n=4096, seed=1):
+    rng = np.random.default_rng(seed)
+    f = np.fft.rfftfreq(n, 1.0 / RATE_HZ)
+    spec = rng.normal(size=(3, f.size)) + 1j * rng.normal(size=(3, f.size))
+    spec[:, f > 100.0] = 0.0  # band-limited: a delay is exact on it
+    spec[:, 0] = 0.0
+    return np.fft.irfft(spec, n), spec, f
+
+
+def test_each_fault_in_time_is_its_frequency_form():
+    """For a band-limited periodic record, applying a linear fault in time equals applying it to the
+    spectrum (a delay: the phase ``exp(-2 pi i f tau)``); a swap exchanges rows, a wrong axis copies one."""
+    y, spec, f = _signals()
+    n = y.shape[1]
+    # a whole number of samples: a delay equals the circular shift of the periodic record
+    delayed = SensorFault("delay", "B", value=0.005).apply(np.tile(y, 3), NAMES, RATE_HZ)[:, n : 2 * n]
+    np.testing.assert_allclose(delayed[1], np.roll(y[1], 5), atol=1e-9 * np.abs(y).max())
+    np.testing.assert_array_equal(delayed[[0, 2]], y[[0, 2]])
+    for fault in (
+        SensorFault("polarity", "A", value=1.2),
+        SensorFault("swap", "A", "C"),
+        SensorFault("axis", "B", "C"),
+        SensorFault("dead", "C"),
+    ):
+        in_time = fault.apply(y, NAMES, RATE_HZ)
+        in_freq = np.fft.irfft(fault.apply_frf(spec, NAMES, f), n)
+        np.testing.assert_allclose(in_time, in_freq, atol=1e-12 * np.abs(y).max())
+    swapped = SensorFault("swap", "A", "C").apply(y, NAMES, RATE_HZ)
+    np.testing.assert_array_equal(swapped, y[[2, 1, 0]])
+    np.testing.assert_array_equal(SensorFault("axis", "B", "C").apply(y, NAMES, RATE_HZ)[1], y[2])
+    clipped = SensorFault("clipped", "A", value=0.5 * np.abs(y[0]).max()).apply(y, NAMES, RATE_HZ)
+    assert np.abs(clipped[0]).max() == pytest.approx(0.5 * np.abs(y[0]).max())
+    with pytest.raises(InputError, match="not among the channels"):
+        SensorFault("dead", "X").apply(y, NAMES, RATE_HZ)
+    with pytest.raises(InputError, match="other channel"):
+        SensorFault("swap", "A")
+
+
+def test_faults_are_offered_only_where_their_channels_carry_the_residual():
+    """A model far off leaves large errors at many channels; a fault is offered at a located channel only
+    if it (a swap: the pair) carries a quarter of the residual, so zeroing or delaying one channel of many
+    cannot pass for an explanation of structural mismatch."""
+    from exudyn_study.diagnose.rig_candidates import FAULT_MIN_SHARE, RIG_CANDIDATES, CandidateContext
+
+    chans = ("ARFVZ", "ARHBZ", "ARFMZ")
+    ctx = CandidateContext(
+        model=None, lin=None, build=None, locations=[], markers={}, sensor_names=chans,
+        located=list(chans), level_dependent=False, channels=chans,
+        residual_share={"ARFVZ": 0.6, "ARHBZ": 0.15, "ARFMZ": 0.15},
+    )
+    dead = RIG_CANDIDATES["sensor_dead"].factory(ctx)
+    assert [h.location for h in dead] == ["ARFVZ"] and FAULT_MIN_SHARE > 0.15
+    swaps = [h.location for h in RIG_CANDIDATES["sensor_swap"].factory(ctx)]
+    assert swaps == ["ARFVZ/ARHBZ", "ARFVZ/ARFMZ", "ARHBZ/ARFMZ"]  # 0.75, 0.75 and 0.3 of the residual
+    ctx.residual_share = {"ARFVZ": 0.1, "ARHBZ": 0.1, "ARFMZ": 0.1}
+    assert RIG_CANDIDATES["sensor_polarity"].factory(ctx) == []
+
+
+@pytest.fixture(scope="module")
+def bodies():
+    pytest.importorskip("exudyn")
+    return mini_bodies()
+
+
+def _diagnose(bodies, augmentations, seed=7):
+    from exudyn_study.diagnose.rig import RigDiagnosisSettings, diagnose_rig
+
+    sc = Scenario("mini", "test", variant=1, damping="constant-2", augmentations=augmentations)
+    sc = sc.with_seed(seed)
+    train = virtual_recording(sc, "white-noise", DURATION_S, bodies=bodies, sensors=FRAME_SENSORS)
+    hold = virtual_recording(sc, "test", DURATION_S, bodies=bodies, sensors=FRAME_SENSORS)
+    st = RigDiagnosisSettings(train_duration_s=12.0, screen_duration_s=8.0, max_findings=2)
+    return diagnose_rig(
+        1, [train], [hold], damping="constant-2", bodies=bodies, sensors=FRAME_SENSORS, settings=st
+    )
+
+
+@pytest.mark.parametrize(
+    ("physics", "location", "params", "sensors"),
+    [
+        ("sensor_polarity", "ARHBZ", {"gain": 1.0}, ["ARHBZ"]),
+        ("sensor_swap", "ARFVZ/ARHBZ", {}, ["ARFVZ", "ARHBZ"]),
+        ("sensor_axis", "ARFVZ>ARFVY", {}, ["ARFVZ", "ARFVY"]),
+        ("sensor_dead", "ARVBZ", {}, ["ARVBZ"]),
+        ("sensor_delay", "ARHBZ", {"delay_s": 0.004}, ["ARHBZ"]),
+    ],
+)
+def test_a_sensor_fault_is_named_with_its_channel(bodies, physics, location, params, sensors):
+    d = _diagnose(bodies, (Augment(physics, location, params),))
+    assert d.mismatch_found and d.findings, d.unexplained
+    f = d.findings[0]
+    assert f.physics == physics, [(g.physics, g.location) for g in d.findings]
+    assert sorted(f.location["sensors"]) == sorted(sensors)
+    for name, true in params.items():
+        assert f.parameters[name]["value"] == pytest.approx(true, rel=0.05)
+    assert f.fit["holdout_after"] < 0.5 * f.fit["holdout_before"]
+    assert "sensor fault" in f.explanation
