@@ -29,6 +29,7 @@ from exudyn_study.identify.resolution import (
 from exudyn_study.identify.selection import Selection, select_modes
 from exudyn_study.identify.selfcheck import self_check
 from exudyn_study.infra.blas import one_blas_thread
+from exudyn_study.infra.progress import StageProgress
 
 __all__ = ["IdentificationResult", "identify_frf", "identify", "identify_recording",
            "DEFAULT_ORDERS", "excited_band"]
@@ -290,47 +291,53 @@ def identify(
             )
     n = np.shape(response)[-1]
     duration = n / sample_rate_hz
-    chosen = {}
-    if band_hz is None:
-        band_hz = excited_band(reference, sample_rate_hz, first_pass_resolution(duration))
-        chosen["band_hz"] = f"{band_hz[0]:.3g}-{band_hz[1]:.3g} Hz, where the reference is excited"
-    if resolution_hz is None:
-        resolution_hz, chosen["resolution_hz"] = _choose_resolution(
-            reference, response, sample_rate_hz, band_hz, estimator=estimator, overlap=overlap,
-            window=window, mimo=mimo, orders=kwargs.get("orders", DEFAULT_ORDERS))
-    for what, why in chosen.items():
-        logger.info("%s chosen: %s", what, why)
-    frf = estimate_frf(reference, response, sample_rate_hz, resolution_hz=resolution_hz,
-                       estimator=estimator, overlap=overlap, window=window, mimo=mimo,
-                       fmax_hz=min(nyq, band_hz[1] * 1.2),
-                       outputs=tuple(outputs), inputs=tuple(inputs))
-    if chosen:
-        meta = dict(kwargs.pop("metadata", None) or {})
-        meta["chosen"] = chosen
-        kwargs["metadata"] = meta
-    kwargs.setdefault("duration_s", n / sample_rate_hz)
-    with warnings.catch_warnings(record=True) as first_warnings:
-        warnings.simplefilter("always")
-        result = identify_frf(frf, band_hz=band_hz, **kwargs)
-    refined = False
-    if "resolution_hz" in chosen and len(result.model):
-        # the survey may see a close pair as one peak: when the modes found at the chosen
-        # resolution ask for a finer one the record supports, estimate and identify again
-        adv = choose_resolution(result.model.frequency_hz, result.model.damping_ratio, duration,
-                                overlap=overlap)
-        if adv.resolution_hz < 0.99 * frf.resolution_hz:
-            chosen["resolution_hz"] = adv.message + " (refined after the first identification)"
-            logger.info("resolution_hz refined: %s", adv.message)
-            frf = estimate_frf(reference, response, sample_rate_hz, resolution_hz=adv.resolution_hz,
-                               estimator=estimator, overlap=overlap, window=window, mimo=mimo,
-                               fmax_hz=min(nyq, band_hz[1] * 1.2),
-                               outputs=tuple(outputs), inputs=tuple(inputs))
-            kwargs["metadata"]["chosen"] = chosen
+    stages = ("band and resolution", "FRF estimate", "PolyMAX, selection, LSFD", "refined resolution")
+    with StageProgress("identification", stages, leave=False) as progress:
+        chosen = {}
+        progress.stage("band and resolution")
+        if band_hz is None:
+            band_hz = excited_band(reference, sample_rate_hz, first_pass_resolution(duration))
+            chosen["band_hz"] = f"{band_hz[0]:.3g}-{band_hz[1]:.3g} Hz, where the reference is excited"
+        if resolution_hz is None:
+            resolution_hz, chosen["resolution_hz"] = _choose_resolution(
+                reference, response, sample_rate_hz, band_hz, estimator=estimator, overlap=overlap,
+                window=window, mimo=mimo, orders=kwargs.get("orders", DEFAULT_ORDERS))
+        for what, why in chosen.items():
+            logger.info("%s chosen: %s", what, why)
+        progress.stage("FRF estimate")
+        frf = estimate_frf(reference, response, sample_rate_hz, resolution_hz=resolution_hz,
+                           estimator=estimator, overlap=overlap, window=window, mimo=mimo,
+                           fmax_hz=min(nyq, band_hz[1] * 1.2),
+                           outputs=tuple(outputs), inputs=tuple(inputs))
+        if chosen:
+            meta = dict(kwargs.pop("metadata", None) or {})
+            meta["chosen"] = chosen
+            kwargs["metadata"] = meta
+        kwargs.setdefault("duration_s", n / sample_rate_hz)
+        progress.stage("PolyMAX, selection, LSFD")
+        with warnings.catch_warnings(record=True) as first_warnings:
+            warnings.simplefilter("always")
             result = identify_frf(frf, band_hz=band_hz, **kwargs)
-            refined = True
-    if not refined:  # the first pass's warnings stand (a refined pass issued its own)
-        for w in first_warnings:
-            warnings.warn_explicit(w.message, w.category, w.filename, w.lineno)
+        refined = False
+        if "resolution_hz" in chosen and len(result.model):
+            # the survey may see a close pair as one peak: when the modes found at the chosen
+            # resolution ask for a finer one the record supports, estimate and identify again
+            adv = choose_resolution(result.model.frequency_hz, result.model.damping_ratio, duration,
+                                    overlap=overlap)
+            if adv.resolution_hz < 0.99 * frf.resolution_hz:
+                progress.stage("refined resolution")
+                chosen["resolution_hz"] = adv.message + " (refined after the first identification)"
+                logger.info("resolution_hz refined: %s", adv.message)
+                frf = estimate_frf(reference, response, sample_rate_hz, resolution_hz=adv.resolution_hz,
+                                   estimator=estimator, overlap=overlap, window=window, mimo=mimo,
+                                   fmax_hz=min(nyq, band_hz[1] * 1.2),
+                                   outputs=tuple(outputs), inputs=tuple(inputs))
+                kwargs["metadata"]["chosen"] = chosen
+                result = identify_frf(frf, band_hz=band_hz, **kwargs)
+                refined = True
+        if not refined:  # the first pass's warnings stand (a refined pass issued its own)
+            for w in first_warnings:
+                warnings.warn_explicit(w.message, w.category, w.filename, w.lineno)
     msg = None if mimo else collinear_references_warning(reference, sample_rate_hz, frf, result.band_hz,
                                                          names=tuple(inputs))
     if msg:

@@ -50,6 +50,8 @@ class StageProgress:
         What is being done (the bar's label), e.g. ``"flexible body chassis"``.
     stages : sequence of str
         The stages in order; :meth:`stage` names the current one.
+    leave : bool
+        Keep the finished bar on the terminal (False: it disappears, for steps run many times).
 
     Examples
     --------
@@ -58,10 +60,10 @@ class StageProgress:
     ...     p.stage("reduce"); reduce()
     """
 
-    def __init__(self, description: str, stages: Sequence[str]):
+    def __init__(self, description: str, stages: Sequence[str], leave: bool = True):
         self.stages = tuple(stages)
         self._bar = tqdm(total=len(self.stages), desc=description, file=sys.stderr,
-                         disable=progress_enabled(), leave=True,
+                         disable=progress_enabled(), leave=leave,
                          bar_format="{desc} [{elapsed}] stage {n_fmt}/{total_fmt}{postfix}")
         self._stop = threading.Event()
         self._thread: threading.Thread | None = None
