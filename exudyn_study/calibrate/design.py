@@ -168,7 +168,20 @@ class DampingDesign:
         return out
 
     def variables_from_ratios(self, ratios: Mapping[str, np.ndarray]) -> np.ndarray:
-        """Design vector from per-body ratios (mean over the modes a variable sets)."""
+        """Design vector from per-body ratios (mean over the modes a variable sets).
+
+        Parameters
+        ----------
+        ratios : Mapping[str, numpy.ndarray]
+            Per-body modal damping ratios (dimensionless), keyed by body name; each array holds one
+            ratio per mode of that body, in the order of :attr:`assignment`.
+
+        Returns
+        -------
+        numpy.ndarray
+            Design vector of shape ``(n_variables,)``: for each variable the mean of the ratios of the
+            modes it sets.
+        """
         acc = np.zeros(self.n_variables)
         cnt = np.zeros(self.n_variables)
         for b, a in self.assignment.items():

@@ -153,7 +153,19 @@ class LinearisedSystem:
             n_variables=self.n_variables)
 
     def damping_matrix(self, x) -> np.ndarray:
-        """System damping matrix ``C(x)`` (null-space coordinates)."""
+        """System damping matrix ``C(x)`` (null-space coordinates).
+
+        Parameters
+        ----------
+        x : array_like
+            Design vector of shape ``(n_variables,)``: the damping variables (modal damping ratios) that
+            scale the variable part of the damping.
+
+        Returns
+        -------
+        numpy.ndarray
+            Damping matrix ``C(x)`` in the null-space coordinates, square of the system's size.
+        """
         x = np.asarray(x, float)
         return self.damping_fixed + (self.basis * (self.weight * x[self.variable])) @ self.basis.T
 
@@ -326,6 +338,18 @@ def exudyn_damped_modes(mbs) -> tuple[np.ndarray, np.ndarray]:
     ``ComputeODE2Eigenvalues(computeComplexEigenvalues=True)`` with constraints projected;
     conjugates, overdamped (real) pairs and rigid-body zeros removed. The reference the
     linear damping basis is checked against.
+
+    Parameters
+    ----------
+    mbs : exudyn.MainSystem
+        Assembled Exudyn system whose damped eigenvalues are computed.
+
+    Returns
+    -------
+    frequency_hz : numpy.ndarray
+        Damped natural frequencies in Hz (absolute value of each eigenvalue over 2 pi), ascending.
+    damping_ratio : numpy.ndarray
+        Damping ratio of each mode (dimensionless), same shape as ``frequency_hz``.
     """
     values, _ = mbs.ComputeODE2Eigenvalues(computeComplexEigenvalues=True, useAbsoluteValues=False)
     values = np.asarray(values)

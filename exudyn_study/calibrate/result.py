@@ -194,11 +194,35 @@ class CalibrationResult:
         }
 
     def to_json(self, metadata: Mapping | None = None) -> str:
-        """Serialise :meth:`to_dict` to JSON text."""
+        """Serialise :meth:`to_dict` to JSON text.
+
+        Parameters
+        ----------
+        metadata : Mapping, optional
+            Extra JSON-serialisable entries passed to :meth:`to_dict` (None: none).
+
+        Returns
+        -------
+        str
+            The result as indented JSON text.
+        """
         return json.dumps(self.to_dict(metadata), indent=1)
 
     def write_json(self, path: str | os.PathLike, metadata: Mapping | None = None) -> Path:
-        """Write :meth:`to_json` atomically to ``path``; returns the path."""
+        """Write :meth:`to_json` atomically to ``path``; returns the path.
+
+        Parameters
+        ----------
+        path : str or os.PathLike
+            File to write; its directory must exist. An existing file is replaced.
+        metadata : Mapping, optional
+            Extra JSON-serialisable entries passed to :meth:`to_dict` (None: none).
+
+        Returns
+        -------
+        pathlib.Path
+            The written path.
+        """
         path = Path(path)
         text = self.to_json(metadata)
         fd, tmp = tempfile.mkstemp(

@@ -157,6 +157,18 @@ def system_from_model(model) -> CalibrationSystem:
     ``node``/``mesh_node``/``node_index`` and a ``direction`` given as a 3-vector or
     'X'/'Y'/'Z'). Sensors that do not fit are skipped with a log message.
 
+    Parameters
+    ----------
+    model : object
+        Rig model as returned by ``exudyn_study.model.build_model``, with the attributes listed
+        above.
+
+    Returns
+    -------
+    CalibrationSystem
+        The system over ``model.mbs`` and ``model.bodies``, with the sensors that have a body, a
+        mesh node and a direction; ``model`` is kept as its owner.
+
     Raises
     ------
     StudyError

@@ -8,7 +8,28 @@ from exudyn_study.errors import InputError
 
 
 def as_frf(frf, freq_hz) -> tuple[np.ndarray, np.ndarray]:
-    """Validate and return ``frf[n_out, n_in, n_freq]`` (complex) and ``freq_hz``."""
+    """Validate and return ``frf[n_out, n_in, n_freq]`` (complex) and ``freq_hz``.
+
+    Parameters
+    ----------
+    frf : array_like
+        Frequency response functions ``H[n_out, n_in, n_freq]``, finite values.
+    freq_hz : array_like
+        Frequency lines in Hz, shape ``(n_freq,)``: finite, strictly increasing, at least 4.
+
+    Returns
+    -------
+    frf : numpy.ndarray
+        ``frf`` as a complex array of shape ``(n_out, n_in, n_freq)``.
+    freq_hz : numpy.ndarray
+        ``freq_hz`` as a float array of shape ``(n_freq,)``.
+
+    Raises
+    ------
+    InputError
+        If ``frf`` is not 3-D or holds non-finite values, or ``freq_hz`` does not match its last
+        axis, has fewer than 4 lines or is not finite and strictly increasing.
+    """
     frf = np.asarray(frf)
     if frf.ndim != 3:
         raise InputError(
@@ -36,7 +57,27 @@ def as_frf(frf, freq_hz) -> tuple[np.ndarray, np.ndarray]:
 
 
 def band_mask(freq_hz: np.ndarray, band_hz) -> np.ndarray:
-    """Boolean mask of the lines inside ``band_hz`` (default: all lines > 0 Hz)."""
+    """Boolean mask of the lines inside ``band_hz`` (default: all lines > 0 Hz).
+
+    Parameters
+    ----------
+    freq_hz : numpy.ndarray
+        Frequency lines in Hz, shape ``(n_freq,)``, strictly increasing.
+    band_hz : tuple of float or None
+        Band ``(fmin, fmax)`` in Hz with ``0 <= fmin < fmax`` inside the data's range; None selects
+        from the first line above 0 Hz to the last line.
+
+    Returns
+    -------
+    numpy.ndarray
+        Boolean mask of shape ``(n_freq,)``, True on the lines above 0 Hz inside the band.
+
+    Raises
+    ------
+    InputError
+        If ``band_hz`` is not two numbers, is not ordered, lies outside the data, or holds fewer
+        than 4 lines.
+    """
     if band_hz is None:
         band = (freq_hz[freq_hz > 0][0] if np.any(freq_hz > 0) else 0.0, freq_hz[-1])
     else:
@@ -74,6 +115,13 @@ def callable_module(module_name: str, func) -> None:
     do ``exudyn_study.identify.lsfd.Leakage`` and ``import exudyn_study.identify.lsfd``
     (a re-exported function of the same name would shadow the module attribute).
     Uses module ``__class__`` assignment (Python >= 3.5).
+
+    Parameters
+    ----------
+    module_name : str
+        Fully qualified name of a module already in ``sys.modules``.
+    func : callable
+        Function called when the module is called; its signature becomes the module's.
     """
     import sys
     import types

@@ -126,7 +126,23 @@ def segment_length(sample_rate_hz: float, resolution_hz: float) -> int:
 
 
 def n_averages(n_samples: int, n_segment: int, overlap: float) -> int:
-    """Return the number of Welch segments of ``n_segment`` samples with ``overlap``."""
+    """Return the number of Welch segments of ``n_segment`` samples with ``overlap``.
+
+    Parameters
+    ----------
+    n_samples : int
+        Number of samples of the record.
+    n_segment : int
+        Number of samples per segment.
+    overlap : float
+        Overlap of consecutive segments as a fraction of ``n_segment`` (0 to < 1); the step is at
+        least one sample.
+
+    Returns
+    -------
+    int
+        Number of whole segments that fit in the record (0 if it is shorter than a segment).
+    """
     step = max(1, int(round(n_segment * (1 - overlap))))
     if n_samples < n_segment:
         return 0

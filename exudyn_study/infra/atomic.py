@@ -61,5 +61,20 @@ def atomic_write(path: str | os.PathLike, write: Callable[[Path], None], what: s
 
 
 def write_text_atomic(path: str | os.PathLike, text: str, what: str = "output file") -> Path:
-    """Write ``text`` (UTF-8) to ``path`` atomically (see :func:`atomic_write`)."""
+    """Write ``text`` (UTF-8) to ``path`` atomically (see :func:`atomic_write`).
+
+    Parameters
+    ----------
+    path : str or os.PathLike
+        File to write; an existing file is replaced.
+    text : str
+        Content to write, encoded as UTF-8.
+    what : str, default "output file"
+        Description of the file used in error messages.
+
+    Returns
+    -------
+    pathlib.Path
+        The written path.
+    """
     return atomic_write(path, lambda tmp: tmp.write_text(text, encoding="utf-8"), what)

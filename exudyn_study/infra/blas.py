@@ -24,7 +24,18 @@ def single_threaded_blas():
 
 
 def one_blas_thread(function):
-    """Decorate ``function`` to run inside :func:`single_threaded_blas`."""
+    """Decorate ``function`` to run inside :func:`single_threaded_blas`.
+
+    Parameters
+    ----------
+    function : callable
+        Function to wrap.
+
+    Returns
+    -------
+    callable
+        Wrapper with the same signature that calls ``function`` with BLAS limited to one thread.
+    """
 
     @functools.wraps(function)
     def wrapper(*args, **kwargs):

@@ -54,6 +54,17 @@ CACHE_FORMAT_VERSION = 1
 def cache_dir(directory: str | os.PathLike | None = None) -> Path:
     """Return (and create) the cache directory.
 
+    Parameters
+    ----------
+    directory : str or os.PathLike, optional
+        Cache directory to use. None uses ``$EXUDYN_STUDY_CACHE`` if set, else
+        ``~/.cache/exudyn_study``.
+
+    Returns
+    -------
+    pathlib.Path
+        The existing, writable cache directory.
+
     Raises
     ------
     InputError
@@ -82,7 +93,18 @@ def _canonical(recipe: Mapping) -> str:
 
 
 def recipe_key(recipe: Mapping) -> str:
-    """SHA-256 hex digest of the canonical JSON of ``recipe``."""
+    """SHA-256 hex digest of the canonical JSON of ``recipe``.
+
+    Parameters
+    ----------
+    recipe : Mapping
+        JSON-serialisable description of what an entry is built from.
+
+    Returns
+    -------
+    str
+        64-character hex digest that names the entry.
+    """
     return hashlib.sha256(_canonical(recipe).encode()).hexdigest()
 
 
@@ -159,6 +181,18 @@ def load_entry(recipe: Mapping, directory: str | os.PathLike | None = None) -> d
     An entry found inconsistent is read again under the entry's lock (a writer may have
     been renaming its files); one that is still corrupt or stale is logged, deleted and
     reported as a miss.
+
+    Parameters
+    ----------
+    recipe : Mapping
+        JSON-serialisable description of the entry (see :func:`recipe_key`).
+    directory : str or os.PathLike, optional
+        Cache directory (None: the default of :func:`cache_dir`).
+
+    Returns
+    -------
+    dict of str to numpy.ndarray or None
+        The stored arrays by name, or None if there is no valid entry.
     """
     root = cache_dir(directory)
     key = recipe_key(recipe)
@@ -204,7 +238,22 @@ def _store_locked(root: Path, key: str, recipe: Mapping, arrays: Mapping[str, np
 
 def store_entry(recipe: Mapping, arrays: Mapping[str, np.ndarray],
                 directory: str | os.PathLike | None = None) -> str:
-    """Store ``arrays`` under ``recipe`` (under the entry's lock); returns the key."""
+    """Store ``arrays`` under ``recipe`` (under the entry's lock); returns the key.
+
+    Parameters
+    ----------
+    recipe : Mapping
+        JSON-serialisable description of the entry (see :func:`recipe_key`).
+    arrays : Mapping[str, numpy.ndarray]
+        Arrays to store, by name.
+    directory : str or os.PathLike, optional
+        Cache directory (None: the default of :func:`cache_dir`).
+
+    Returns
+    -------
+    str
+        Key of the stored entry (:func:`recipe_key` of ``recipe``).
+    """
     root = cache_dir(directory)
     key = recipe_key(recipe)
     with entry_lock(root, key):
@@ -221,6 +270,22 @@ def cached(
 
     The build runs under the entry's lock: a second process asking for the same key waits
     and then reads the first one's entry instead of building it again.
+
+    Parameters
+    ----------
+    recipe : Mapping
+        JSON-serialisable description of the entry (see :func:`recipe_key`).
+    build : callable
+        Function without arguments that returns the arrays by name; called only on a miss.
+    directory : str or os.PathLike, optional
+        Cache directory (None: the default of :func:`cache_dir`).
+
+    Returns
+    -------
+    arrays : dict of str to numpy.ndarray
+        The cached or newly built arrays by name.
+    hit : bool
+        True if the arrays came from the cache, False if ``build`` ran.
     """
     arrays = load_entry(recipe, directory)
     if arrays is not None:

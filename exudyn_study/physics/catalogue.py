@@ -70,7 +70,25 @@ class Parameter:
         object.__setattr__(self, "default", self.check(self.default, "default"))
 
     def check(self, value, owner: str = "") -> float:
-        """``value`` as float if within the bounds, else InputError naming the parameter and bounds."""
+        """``value`` as float if within the bounds, else InputError naming the parameter and bounds.
+
+        Parameters
+        ----------
+        value : float
+            Value to check, in the parameter's ``unit``.
+        owner : str, default ""
+            Name prefixed to the error message (for example the entry's name); empty for none.
+
+        Returns
+        -------
+        float
+            ``value`` as a float.
+
+        Raises
+        ------
+        InputError
+            If ``value`` is not a finite number within ``[lower, upper]``.
+        """
         who = f"{owner}: " if owner else ""
         try:
             v = float(value)
@@ -116,7 +134,23 @@ class Augmentation(Protocol):
     locations: str
 
     def apply(self, model, location=None, **params) -> Applied:
-        """Add the entry's Exudyn items to ``model`` (not yet assembled) at ``location``."""
+        """Add the entry's Exudyn items to ``model`` (not yet assembled) at ``location``.
+
+        Parameters
+        ----------
+        model : object
+            Rig model whose Exudyn system is not yet assembled.
+        location : str, optional
+            Where the entry acts, as described by the entry's ``locations`` (None: the entry's
+            default).
+        **params
+            Values of the entry's parameters by name, in their units.
+
+        Returns
+        -------
+        Applied
+            The added items.
+        """
         ...
 
 
@@ -160,7 +194,23 @@ class PhysicsEntry:
         object.__setattr__(self, "parameters", params)
 
     def parameter(self, name: str) -> Parameter:
-        """Return the parameter called ``name`` (InputError listing the known ones)."""
+        """Return the parameter called ``name`` (InputError listing the known ones).
+
+        Parameters
+        ----------
+        name : str
+            Name of the parameter.
+
+        Returns
+        -------
+        Parameter
+            The entry's parameter called ``name``.
+
+        Raises
+        ------
+        InputError
+            If the entry has no parameter called ``name``.
+        """
         for p in self.parameters:
             if p.name == name:
                 return p
@@ -220,6 +270,18 @@ CATALOGUE: Mapping[str, Augmentation] = types.MappingProxyType(_REGISTRY)
 def register(new: Augmentation, replace: bool = False) -> Augmentation:
     """Add ``new`` to the catalogue (under ``new.name``) and return it.
 
+    Parameters
+    ----------
+    new : Augmentation
+        Entry to add; it has ``name``, ``doc``, ``parameters``, ``locations`` and ``apply``.
+    replace : bool, default False
+        Whether to replace an entry already registered under the same name.
+
+    Returns
+    -------
+    Augmentation
+        ``new``.
+
     Raises
     ------
     InputError
@@ -236,13 +298,40 @@ def register(new: Augmentation, replace: bool = False) -> Augmentation:
 
 
 def unregister(name: str) -> None:
-    """Remove ``name`` from the catalogue (InputError if unknown)."""
+    """Remove ``name`` from the catalogue (InputError if unknown).
+
+    Parameters
+    ----------
+    name : str
+        Name of the catalogue entry to remove.
+
+    Raises
+    ------
+    InputError
+        If no entry is registered under ``name``.
+    """
     entry(name)
     del _REGISTRY[name]
 
 
 def entry(name: str) -> Augmentation:
-    """Return the catalogue entry called ``name`` (InputError listing the known names)."""
+    """Return the catalogue entry called ``name`` (InputError listing the known names).
+
+    Parameters
+    ----------
+    name : str
+        Name of the catalogue entry.
+
+    Returns
+    -------
+    Augmentation
+        The registered entry.
+
+    Raises
+    ------
+    InputError
+        If no entry is registered under ``name``.
+    """
     try:
         return _REGISTRY[name]
     except (KeyError, TypeError):

@@ -44,7 +44,18 @@ _AXES = "xyz"
 
 # --------------------------------------------------------------------------------------- helpers
 def component_joints(model) -> dict:
-    """Model-3 joints between a component and the frame: ``'component.interface'`` -> Exudyn object."""
+    """Model-3 joints between a component and the frame: ``'component.interface'`` -> Exudyn object.
+
+    Parameters
+    ----------
+    model : object
+        Rig model with a ``joints`` mapping (joint name -> Exudyn object).
+
+    Returns
+    -------
+    dict
+        The joints whose names have the form ``'component.interface'`` with a known component.
+    """
     return {k: v for k, v in model.joints.items() if "." in k and k.split(".", 1)[0] in _COMPONENTS}
 
 

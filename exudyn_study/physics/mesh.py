@@ -12,6 +12,20 @@ def require_super_element(handle, body_name: str, what: str) -> None:
 
     That element has no mesh nodes and no reduced damping matrix of its own (see
     :func:`exudyn_study.bodies.linear_body.add_linear_matrix_body`).
+
+    Parameters
+    ----------
+    handle : object
+        Handle of the body as stored in ``model.bodies``.
+    body_name : str
+        Name of the body, for the error message.
+    what : str
+        What the entry needs of the body (for example "markers on mesh nodes"), for the error message.
+
+    Raises
+    ------
+    InputError
+        If ``handle`` is a constant-matrix body.
     """
     from exudyn_study.bodies.linear_body import MatrixBodyHandle
 
@@ -28,6 +42,25 @@ def exudyn_mesh_nodes(model, body_name: str, nodes) -> list[int]:
     ``referencePositions`` and ``modeBasis`` (rigid-body modes and flexible modes at those
     nodes), which leaves the existing markers, sensors and the linearised system unchanged.
     Call before assembly.
+
+    Parameters
+    ----------
+    model : object
+        Rig model (not yet assembled) with ``bodies``, ``body_data`` and ``mbs``.
+    body_name : str
+        Name of the flexible body in ``model.bodies``.
+    nodes : iterable of int
+        Mesh node indices of the body.
+
+    Returns
+    -------
+    list of int
+        Exudyn node index of each of ``nodes``, in the same order.
+
+    Raises
+    ------
+    InputError
+        If the body is a constant-matrix element.
     """
     handle = model.bodies[body_name]
     require_super_element(handle, body_name, "markers on mesh nodes")

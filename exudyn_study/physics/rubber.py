@@ -17,7 +17,18 @@ RUBBER_REGION = "bracket_left_rubber"
 
 
 def rubber_body(model) -> str | None:
-    """Return the name of the body that holds the rubber pad's region (None without one)."""
+    """Return the name of the body that holds the rubber pad's region (None without one).
+
+    Parameters
+    ----------
+    model : object
+        Rig model with a ``bodies`` mapping (name -> body handle).
+
+    Returns
+    -------
+    str or None
+        Name of the body whose mesh has the rubber region, or None.
+    """
     for name, handle in model.bodies.items():
         if RUBBER_REGION in handle.body.region_nodes:
             return name
@@ -25,7 +36,20 @@ def rubber_body(model) -> str | None:
 
 
 def rubber_pad_location_check(entry_name: str):
-    """Return the ``check_location`` of an entry acting on the left bracket's rubber pad (the only one)."""
+    """Return the ``check_location`` of an entry acting on the left bracket's rubber pad (the only one).
+
+    Parameters
+    ----------
+    entry_name : str
+        Name of the entry, used in the error messages.
+
+    Returns
+    -------
+    callable
+        ``check(model, location)`` that returns ``'bracket_left'`` for ``location`` None or
+        ``'bracket_left'``, and raises InputError for any other location or a model without the
+        rubber region.
+    """
 
     def check(model, location):
         if location not in (None, "bracket_left"):
@@ -122,6 +146,25 @@ def pad_spring_matrix(pad: dict, shear_modulus_pa: float, compression_modulus_pa
     ``rocking_factors[axis]`` (the rocking modulus over the compression modulus about global
     x, y, z; the normal's entry is unused). The torsion uses ``shear_modulus_pa +
     torsion_modulus_change_pa`` (default: the shear modulus).
+
+    Parameters
+    ----------
+    pad : dict
+        Pad geometry: ``normal`` (axis index 0, 1 or 2 of the normal), ``thickness_m`` (m),
+        ``area_m2`` (m^2) and ``extent_m`` (side lengths along x, y, z in m).
+    shear_modulus_pa : float
+        Shear modulus ``G`` of the rubber in Pa.
+    compression_modulus_pa : float
+        Effective compression modulus ``E_c`` of the bonded block in Pa.
+    rocking_factors : sequence of float, default (1.0, 1.0, 1.0)
+        Rocking modulus over compression modulus about global x, y, z (dimensionless).
+    torsion_modulus_change_pa : float, default 0.0
+        Change in Pa added to the shear modulus for the torsion about the normal.
+
+    Returns
+    -------
+    numpy.ndarray
+        Diagonal stiffness matrix of shape ``(6, 6)``.
     """
     n, t, area = pad["normal"], pad["thickness_m"], pad["area_m2"]
     ext = np.asarray(pad["extent_m"], dtype=float)

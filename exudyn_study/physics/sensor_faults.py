@@ -96,7 +96,22 @@ class SensorFault:
         return names.index(self.channel), (names.index(self.other) if self.other is not None else None)
 
     def apply(self, y: np.ndarray, names, rate_hz: float) -> np.ndarray:
-        """Return the channels ``y`` (n_channels, n_samples; rows ``names``) as recorded with the fault."""
+        """Return the channels ``y`` (n_channels, n_samples; rows ``names``) as recorded with the fault.
+
+        Parameters
+        ----------
+        y : numpy.ndarray
+            Recorded channels, shape ``(n_channels, n_samples)``.
+        names : sequence of str
+            Channel name of each row of ``y``; the fault's channels are looked up in it.
+        rate_hz : float
+            Sampling rate in Hz (used by the delay fault).
+
+        Returns
+        -------
+        numpy.ndarray
+            Copy of ``y`` (float) with the fault applied to its channels.
+        """
         i, j = self._rows(names)
         out = np.array(y, dtype=float, copy=True)
         if self.kind == "polarity":
@@ -119,7 +134,22 @@ class SensorFault:
         return out
 
     def apply_frf(self, h: np.ndarray, names, freq_hz) -> np.ndarray:
-        """Return the FRFs ``h`` (n_channels, n_freq) as the faulty channels see them (clipping: none)."""
+        """Return the FRFs ``h`` (n_channels, n_freq) as the faulty channels see them (clipping: none).
+
+        Parameters
+        ----------
+        h : numpy.ndarray
+            Complex FRFs, shape ``(n_channels, n_freq)``.
+        names : sequence of str
+            Channel name of each row of ``h``; the fault's channels are looked up in it.
+        freq_hz : array_like
+            Frequency lines in Hz, shape ``(n_freq,)`` (used by the delay fault).
+
+        Returns
+        -------
+        numpy.ndarray
+            Complex copy of ``h`` with the fault applied to its channels.
+        """
         i, j = self._rows(names)
         out = np.array(h, dtype=complex, copy=True)
         if self.kind == "polarity":

@@ -161,7 +161,22 @@ class ParameterRange:
         return list(range(a[0], a[1] + (1 if step > 0 else -1), step))
 
     def sample(self, rng: np.random.Generator, n: int) -> list:
-        """``n`` random values (see the module notes)."""
+        """``n`` random values (see the module notes).
+
+        Parameters
+        ----------
+        rng : numpy.random.Generator
+            Random generator to draw from.
+        n : int
+            Number of values to draw.
+
+        Returns
+        -------
+        list
+            ``n`` values: drawn with replacement from the grid values for ``values`` and ``range``,
+            uniform between the two bounds for ``linspace``, log-uniform between ``10**lo`` and
+            ``10**hi`` for ``logspace``.
+        """
         a = self.args
         if self.kind in ("values", "range"):
             pool = self.grid_values()
@@ -308,6 +323,26 @@ def parse_config(data: Mapping[str, Any], source: str = "<config>", default_name
     Every point is expanded and each value checked against the task's declarations, so a
     bad value is reported here, before any task runs.
 
+    Parameters
+    ----------
+    data : Mapping[str, Any]
+        Parsed TOML document with the tables ``[study]`` and ``[parameters]``.
+    source : str, default "<config>"
+        Name of the configuration (for example its file path), used in error messages and
+        stored in the result.
+    default_name : str, default "sweep"
+        Study name used when ``study.name`` is absent; it names the output folder.
+    registry : TaskRegistry, optional
+        Registry in which the task is looked up (default :data:`TASKS`).
+    allow_imports : bool, default False
+        Whether the modules listed in ``study.imports`` may be imported (importing runs their
+        code); without it a non-empty list is an error.
+
+    Returns
+    -------
+    SweepConfig
+        The validated configuration.
+
     Raises
     ------
     InputError
@@ -446,7 +481,22 @@ def _check_range_value(param, r: ParameterRange, v: Any, where: str) -> None:
 
 
 def point_key(task: str, params: Mapping[str, Any], seed: int) -> str:
-    """Identity of a point: the first 16 hex digits of SHA-256 of its canonical JSON."""
+    """Identity of a point: the first 16 hex digits of SHA-256 of its canonical JSON.
+
+    Parameters
+    ----------
+    task : str
+        Name of the task.
+    params : Mapping[str, Any]
+        Parameter values of the point, by name.
+    seed : int
+        Seed of the point.
+
+    Returns
+    -------
+    str
+        16 hex digits identifying the point.
+    """
     text = json.dumps({"task": task, "params": dict(params), "seed": int(seed)}, sort_keys=True,
                       separators=(",", ":"), default=str)
     return hashlib.sha256(text.encode()).hexdigest()[:16]
@@ -457,6 +507,13 @@ def expand_points(config: SweepConfig, registry: TaskRegistry | None = None) -> 
 
     Every value is checked against the task's declaration; duplicate points (possible in
     random mode with discrete values) are kept once.
+
+    Parameters
+    ----------
+    config : SweepConfig
+        Validated sweep configuration (see :func:`parse_config`).
+    registry : TaskRegistry, optional
+        Registry in which ``config.task`` is looked up (default :data:`TASKS`).
 
     Returns
     -------

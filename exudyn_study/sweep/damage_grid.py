@@ -239,6 +239,20 @@ class GridResult:
     def cell(self, model: int, damping: str, signal: str) -> CellResult:
         """Return the cell of (model, damping, signal).
 
+        Parameters
+        ----------
+        model : int
+            Model variant (1, 2 or 3).
+        damping : str
+            Damping name (one of :data:`DAMPING_NAMES`).
+        signal : str
+            Drive signal name.
+
+        Returns
+        -------
+        CellResult
+            The result of that cell.
+
         Raises
         ------
         InputError
@@ -412,7 +426,20 @@ class GridResult:
         return "\n".join(lines)
 
     def write_csv(self, path: str | os.PathLike, iterations: bool = False) -> Path:
-        """Write :meth:`rows` (or :meth:`iteration_rows`) to a CSV file atomically."""
+        """Write :meth:`rows` (or :meth:`iteration_rows`) to a CSV file atomically.
+
+        Parameters
+        ----------
+        path : str or os.PathLike
+            CSV file to write; its directory must exist. An existing file is replaced.
+        iterations : bool, default False
+            Whether to write the drive iteration rows instead of the damage rows.
+
+        Returns
+        -------
+        pathlib.Path
+            The written path.
+        """
         rows = self.iteration_rows() if iterations else self.rows()
         fields = list(rows[0]) if rows else ["model", "damping", "signal"]
         path = Path(path)
@@ -437,6 +464,16 @@ class GridResult:
         (``model<m>_<damping>_signals.png``, Figs 25-27 for the suggested damping), where
         there is more than one case to compare; per model a summary by sensor group and
         damping (``model<m>_summary.png``).
+
+        Parameters
+        ----------
+        out_dir : str or os.PathLike
+            Existing directory the PNG files are written to.
+
+        Returns
+        -------
+        list of pathlib.Path
+            The written figure files.
         """
         from exudyn_study.signals.fatigue_plots import plot_damage_summary, plot_relative_pseudo_damage
 
@@ -603,6 +640,11 @@ def run_grid(
     probe_builder : callable, optional
         The same with the whole Exudyn mesh, for the calibration (default: ``builder`` when
         one is given, else ``build_model`` with the whole mesh).
+    mesh_size : {'production', 'coarse'} or float
+        Mesh of every body for the default builders (a float: maximum element size in m).
+    cache_dir : path, optional
+        Flexible-body cache of the default builders (default ``$EXUDYN_STUDY_CACHE`` or
+        ``~/.cache/exudyn_study``).
     plots : bool
         Write bar plots into ``out_dir`` (default True).
     progress : callable, optional

@@ -174,7 +174,19 @@ def _atomic_write_text(path: Path, text: str) -> None:
 
 
 def read_rows(out_dir: str | os.PathLike) -> dict[str, dict]:
-    """All finished rows under ``out_dir/points``, by point id (temporary files ignored)."""
+    """All finished rows under ``out_dir/points``, by point id (temporary files ignored).
+
+    Parameters
+    ----------
+    out_dir : str or os.PathLike
+        Output folder of the sweep; its rows are the JSON files in ``points/``.
+
+    Returns
+    -------
+    dict of str to dict
+        Result row of each finished point, keyed by point id; unreadable files and files that
+        are not the row of their point are skipped with a warning.
+    """
     rows = {}
     shard_dir = Path(out_dir) / "points"
     if not shard_dir.is_dir():
@@ -555,7 +567,24 @@ def _fmt(v: Any) -> str:
 
 def summary_table(rows: Iterable[Mapping[str, Any]], config: SweepConfig, task: Task,
                   max_rows: int = 40) -> str:
-    """Return a fixed-width text table: index, swept parameters, status, wall time, summary outputs."""
+    """Return a fixed-width text table: index, swept parameters, status, wall time, summary outputs.
+
+    Parameters
+    ----------
+    rows : iterable of mapping
+        Result rows, in the order to print.
+    config : SweepConfig
+        The sweep's configuration (its swept parameters give the columns).
+    task : Task
+        The sweep's task (its ``summary`` outputs give the columns).
+    max_rows : int, default 40
+        Number of rows printed; a last line counts the rows left out.
+
+    Returns
+    -------
+    str
+        The table, lines separated by newlines.
+    """
     rows = list(rows)
     cols = ["index", *config.swept, "status", "wall_s", *task.summary]
     body = [[_fmt(r.get(c, "")) for c in cols] for r in rows[:max_rows]]

@@ -43,6 +43,16 @@ class ModelPlant:
     label : str, optional
         Damping label for recordings and tables (default: the model's metadata).
 
+    Other Parameters
+    ----------------
+    _gather : numpy.ndarray, optional
+        Gather vectors of the model's local nonlinearities, shape ``(n_elements, n_q)``
+        (:func:`exudyn_study.linear.nonlinear.gather_vectors`); set after construction,
+        not to be given.
+    _last : dict, optional
+        Last simulated drive and its responses (keys ``drive``, ``acc``), reused by
+        :meth:`recording`; internal, not to be given.
+
     Notes
     -----
     Drives are sampled at :data:`exudyn_study.simulate.OUTPUT_RATE_HZ` (1000 Hz) and
@@ -77,6 +87,18 @@ class ModelPlant:
 
     def indices(self, names: Sequence[str], what: str = "control channel") -> list[int]:
         """Row indices of ``names`` among the model's sensors.
+
+        Parameters
+        ----------
+        names : sequence of str
+            Sensor names.
+        what : str, default "control channel"
+            What the names are, for the error message.
+
+        Returns
+        -------
+        list of int
+            Index of each name in :attr:`sensor_names`, in the order of ``names``.
 
         Raises
         ------
@@ -160,6 +182,19 @@ class ModelPlant:
         drive_rate_hz=1000)`` (every sensor at 1000 Hz, the drive at 204.8 Hz, the same
         metadata) without linearising again; the metadata get the plant's damping label
         and ``metadata`` on top.
+
+        Parameters
+        ----------
+        drive : numpy.ndarray
+            Drive displacement in m, sampled at 1000 Hz, shape ``(n_samples,)``.
+        metadata : Mapping, optional
+            Metadata entries set on top of the model's and the simulation's (None: none).
+
+        Returns
+        -------
+        Recording
+            Every sensor's acceleration (m/s^2) at 1000 Hz and the drive displacement (m) at
+            204.8 Hz.
         """
         from exudyn_study import __version__ as version
         from exudyn_study.recording.types import Channel
@@ -257,7 +292,20 @@ def iterate_model_drive(
 
 
 def rms_errors(response: np.ndarray, target: np.ndarray) -> np.ndarray:
-    """Relative rms error per channel, ``rms(target - response) / rms(target)``."""
+    """Relative rms error per channel, ``rms(target - response) / rms(target)``.
+
+    Parameters
+    ----------
+    response : numpy.ndarray
+        Simulated responses, shape ``(n_channels, n_samples)`` (or ``(n_samples,)`` for one channel).
+    target : numpy.ndarray
+        Target responses, same shape as ``response``.
+
+    Returns
+    -------
+    numpy.ndarray
+        Relative rms error of each channel, shape ``(n_channels,)``.
+    """
     target = np.atleast_2d(target)
     return np.sqrt(np.mean((target - np.atleast_2d(response)) ** 2, axis=1) / np.mean(target**2, axis=1))
 

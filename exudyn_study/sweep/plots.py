@@ -27,7 +27,22 @@ MAX_PANELS = 6
 
 
 def family_columns(rows: Sequence[Mapping[str, Any]], task: Task) -> list[str]:
-    """Output columns plotted for ``task`` (its ``plot_prefix`` family, else its summary)."""
+    """Output columns plotted for ``task`` (its ``plot_prefix`` family, else its summary).
+
+    Parameters
+    ----------
+    rows : sequence of mapping
+        Result rows; their keys are the candidate columns.
+    task : Task
+        The sweep's task.
+
+    Returns
+    -------
+    list of str
+        The columns of the rows that start with ``task.plot_prefix`` (in the order of the rows'
+        keys), or, if there are none, the outputs of ``task.summary`` present in the rows (in the
+        order of the summary).
+    """
     names: list[str] = []
     for r in rows:
         names.extend(k for k in r if k not in names)
@@ -171,7 +186,26 @@ def plot_sweep(rows: Sequence[Mapping[str, Any]], config: SweepConfig, task: Tas
 
 
 def save_sweep_plot(rows, config, task, path, x=None) -> None:
-    """:func:`plot_sweep` written to ``path`` (PNG, 150 dpi)."""
+    """:func:`plot_sweep` written to ``path`` (PNG, 150 dpi).
+
+    Parameters
+    ----------
+    rows : sequence of mapping
+        Result rows (failed rows are skipped).
+    config : SweepConfig
+        The sweep's configuration.
+    task : Task
+        The sweep's task.
+    path : str or os.PathLike
+        PNG file to write.
+    x : str, optional
+        Swept parameter on the horizontal axis (default: see :func:`plot_sweep`).
+
+    Raises
+    ------
+    InputError
+        If ``x`` is not swept, nothing is swept, or no row succeeded.
+    """
     import matplotlib
 
     matplotlib.use("Agg", force=False)

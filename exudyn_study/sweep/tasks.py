@@ -116,6 +116,19 @@ class Parameter:
     def coerce(self, value: Any, where: str) -> Any:
         """Return ``value`` converted to the declared type, or raise naming ``where``.
 
+        Parameters
+        ----------
+        value : Any
+            Value as given in the configuration.
+        where : str
+            Key the value came from (for example ``'study.settings.ratio'``), named in the error.
+
+        Returns
+        -------
+        Any
+            ``value`` converted to the declared type (an integral float becomes an int for an ``int``
+            parameter) and passed through the parameter's ``check``.
+
         Raises
         ------
         InputError
@@ -209,7 +222,25 @@ class TaskRegistry:
         self._tasks: dict[str, Task] = {}
 
     def register(self, task: Task, replace: bool = False) -> Task:
-        """Add ``task``; a name already taken is an error unless ``replace``."""
+        """Add ``task``; a name already taken is an error unless ``replace``.
+
+        Parameters
+        ----------
+        task : Task
+            Task to add, under ``task.name``.
+        replace : bool, default False
+            Whether to replace a task already registered under the same name.
+
+        Returns
+        -------
+        Task
+            ``task``.
+
+        Raises
+        ------
+        InputError
+            If the name is taken and ``replace`` is False.
+        """
         if task.name in self._tasks and not replace:
             raise InputError(f"task {task.name!r} is already registered (pass replace=True to override)")
         self._tasks[task.name] = task
@@ -217,6 +248,16 @@ class TaskRegistry:
 
     def get(self, name: str) -> Task:
         """Return the task called ``name``.
+
+        Parameters
+        ----------
+        name : str
+            Name of the task.
+
+        Returns
+        -------
+        Task
+            The registered task.
 
         Raises
         ------
@@ -277,7 +318,25 @@ def register_task(
 
 
 def get_task(name: str, registry: TaskRegistry | None = None) -> Task:
-    """Look up a task by name in ``registry`` (default :data:`TASKS`)."""
+    """Look up a task by name in ``registry`` (default :data:`TASKS`).
+
+    Parameters
+    ----------
+    name : str
+        Name of the task.
+    registry : TaskRegistry, optional
+        Registry to search (default :data:`TASKS`).
+
+    Returns
+    -------
+    Task
+        The registered task.
+
+    Raises
+    ------
+    InputError
+        If no task is registered under ``name``.
+    """
     return (registry or TASKS).get(name)
 
 
@@ -532,6 +591,10 @@ def damping_sensitivity(*, seed: int, model: str = "modal-table1", signal: str =
         Drive signal length (s), rate (Hz) and rms displacement (m).
     beta : float
         Basquin exponent.
+    measured_scenario : str
+        Virtual-rig scenario (:func:`exudyn_study.virtual_rig.scenarios.scenario`) whose
+        recording is the "measured" one on the rig path (default ``'thesis'``); unused by
+        ``'modal-table1'``.
 
     Returns
     -------

@@ -61,7 +61,20 @@ SCENARIOS: Mapping[str, Scenario] = _SCENARIOS
 
 
 def register_scenario(s: Scenario, replace: bool = False) -> Scenario:
-    """Add ``s`` to :data:`SCENARIOS` (InputError if the name is taken and not ``replace``)."""
+    """Add ``s`` to :data:`SCENARIOS` (InputError if the name is taken and not ``replace``).
+
+    Parameters
+    ----------
+    s : Scenario
+        Scenario to add, under ``s.name``.
+    replace : bool, default False
+        Whether to replace a scenario already registered under the same name.
+
+    Returns
+    -------
+    Scenario
+        ``s``.
+    """
     if s.name in _SCENARIOS and not replace:
         raise InputError(f"scenario {s.name!r} already exists; pass replace=True")
     _SCENARIOS[s.name] = s
@@ -69,7 +82,18 @@ def register_scenario(s: Scenario, replace: bool = False) -> Scenario:
 
 
 def scenario(name: str) -> Scenario:
-    """Return the scenario called ``name`` (InputError listing the known ones)."""
+    """Return the scenario called ``name`` (InputError listing the known ones).
+
+    Parameters
+    ----------
+    name : str
+        Name of the scenario.
+
+    Returns
+    -------
+    Scenario
+        The registered scenario.
+    """
     try:
         return _SCENARIOS[name]
     except (KeyError, TypeError):
@@ -227,6 +251,19 @@ def random_scenario(index: int, effect: str | None = None, rng_seed: int = 2026)
     effect : str, optional
         Force the effect ('none' for a scenario without one); default: drawn from
         :data:`BLIND_EFFECTS`.
+    rng_seed : int, default 2026
+        Seed of the draw, combined with ``index``; another value gives another set of blind
+        scenarios.
+
+    Returns
+    -------
+    Scenario
+        The drawn scenario, named ``blind-{index:02d}``, with its drawn seed.
+
+    Raises
+    ------
+    InputError
+        If ``effect`` is neither 'none' nor one of :data:`BLIND_EFFECTS`.
     """
     from exudyn_study.physics.catalogue import entry
 
