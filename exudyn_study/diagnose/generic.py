@@ -198,12 +198,32 @@ def check_recordings(
 ):
     """Validate the inputs of :func:`diagnose_generic`; return (layout, labels, interface dict).
 
+    Parameters
+    ----------
+    reference : Recording
+        The model reference recording (acceleration channels, one drive channel, one sampling rate).
+    train : sequence of Recording
+        The training recordings.
+    holdout : sequence of Recording
+        The held-out recordings.
+    interfaces : mapping or sequence of tuple or None, optional
+        Interfaces to search: name -> ``(a, b)`` or a list of ``(a, b)`` pairs of channel names
+        (``GROUND``, ``'drive'``, for the table); None: every pair of channels and every channel to the table.
+    labels : mapping of int to str or None, optional
+        Accepted for the caller's labels of the recordings (unused here).
+
     Raises
     ------
     InputError
         No training or no held-out recording; a recording without a drive channel; a
         recording whose sensor layout (channel names, quantities, directions) or sampling rate
         differs from the reference model's; an interface naming an unknown sensor.
+
+    Returns
+    -------
+    tuple
+        ``(layout, labels, interfaces)``: the reference's channel layout, ``(group, index) -> label`` of
+        the training and held-out recordings, and interface name -> ``(a, b)``.
     """
     if not isinstance(reference, Recording):
         raise InputError(f"reference of type {type(reference).__name__}; expected a Recording")
@@ -422,6 +442,9 @@ class ReducedModel:
         Effective modal masses in the same relative unit.
     masses_estimated : bool
         False when the orthogonality estimate failed and equal masses are used.
+    metadata : dict
+        Further facts of the identification (for a force drive, ``drive_point``: the channel at the
+        drive point); empty by default.
     direct : float
         1 for a displacement drive (T is the transmissibility, the table's acceleration passes
         straight through); 0 for a force drive (T is the accelerance, ``psi`` the negated residues
@@ -445,7 +468,22 @@ class ReducedModel:
         return TWO_PI * self.frequency_hz
 
     def transmissibility(self, freq_hz, kern=None) -> np.ndarray:
-        """``T[n_channels, n_freq]`` of the linear model (Welch-smoothed with ``kern`` = (grid, weights))."""
+        """``T[n_channels, n_freq]`` of the linear model (Welch-smoothed with ``kern`` = (grid, weights)).
+
+        Parameters
+        ----------
+        freq_hz : numpy.ndarray
+            Frequencies (Hz), shape (n_freq,).
+        kern : tuple of numpy.ndarray or None, optional
+            ``(grid, weights)`` of the Welch spectral window: frequencies (Hz) around each of ``freq_hz``,
+            shape (n_freq, n_off), and their weights, so the result is the expected Welch estimate
+            (None: the exact transmissibility).
+
+        Returns
+        -------
+        numpy.ndarray
+            Complex transmissibility (accelerance for a force drive), shape (n_channels, n_freq).
+        """
         b = _modal_basis(freq_hz, self.frequency_hz, self.damping_ratio, kern)
         return self.direct + self.psi @ b[:-1] + self.upper[:, None] * b[-1]
 
@@ -459,6 +497,17 @@ class ReducedModel:
 
         ``k_link`` is the identified linear stiffness between the two lumped sensor masses
         (or the sensor and the table), in the relative mass unit times 1/s^2.
+
+        Parameters
+        ----------
+        pair : tuple of str
+            The interface ``(a, b)``: two channels, or a channel and ``GROUND`` (the table, ``'drive'``).
+
+        Returns
+        -------
+        tuple
+            ``(v, w, k_link)``: the relative displacement per modal coordinate, shape (n_modes,), the modal
+            force per unit interface force, shape (n_modes,), and the link stiffness (float).
         """
         a, b = pair
         v = self._row(b) - self._row(a)

@@ -143,13 +143,35 @@ class CandidateContext:
 
     @staticmethod
     def entry(name: str):
-        """Return the catalogue entry ``name``."""
+        """Return the catalogue entry ``name``.
+
+        Parameters
+        ----------
+        name : str
+            Name of the catalogue entry.
+
+        Returns
+        -------
+        PhysicsEntry
+            The entry (:class:`~exudyn_study.physics.catalogue.PhysicsEntry`).
+        """
         from exudyn_study.physics.catalogue import entry
 
         return entry(name)
 
     def component_sensors(self, component: str) -> tuple:
-        """Return the model's sensors on ``component`` (thesis sensor table)."""
+        """Return the model's sensors on ``component`` (thesis sensor table).
+
+        Parameters
+        ----------
+        component : str
+            The rig component (as in the thesis sensor table).
+
+        Returns
+        -------
+        tuple of str
+            The sensors on it, in the model's sensor order.
+        """
         return tuple(s for s in self.sensor_names if sensor_component(s) == component)
 
 
@@ -174,7 +196,23 @@ class ExplainContext:
 
 @dataclass(frozen=True)
 class RigCandidate:
-    """A registered candidate: ``factory(ctx) -> list of Hypothesis`` for catalogue entry ``physics``."""
+    """A registered candidate: ``factory(ctx) -> list of Hypothesis`` for catalogue entry ``physics``.
+
+    Parameters
+    ----------
+    physics : str
+        The catalogue entry the candidate turns into hypotheses.
+    factory : callable
+        ``factory(ctx: CandidateContext) -> list of Hypothesis`` (empty where the entry does not apply).
+    kind : {'linear', 'simulated'}, optional
+        Linear systems (frequency domain) or local nonlinear elements (time simulation); default 'linear'.
+    needs_level_dependence : bool, optional
+        Whether the candidate is offered only when the mismatch grows with the drive level (default False).
+    description : str, optional
+        One-line description (default empty).
+    explain : callable or None, optional
+        ``explain(h, values, ctx: ExplainContext) -> str`` (None: the report lists the fitted values).
+    """
 
     physics: str
     factory: Callable
@@ -254,7 +292,13 @@ def register_rig_candidate(
 
 
 def unregister_rig_candidate(physics: str) -> None:
-    """Remove the rig candidate of ``physics`` (no error if there is none)."""
+    """Remove the rig candidate of ``physics`` (no error if there is none).
+
+    Parameters
+    ----------
+    physics : str
+        The catalogue entry whose rig candidate is removed.
+    """
     RIG_CANDIDATES.pop(physics, None)
 
 

@@ -70,7 +70,25 @@ METRIC = (
 
 @dataclass
 class RigRecording:
-    """A recording prepared for comparison: drive at 1000 Hz, accelerations in model sensor order."""
+    """A recording prepared for comparison: drive at 1000 Hz, accelerations in model sensor order.
+
+    Parameters
+    ----------
+    name : str
+        Name of the recording.
+    drive : Drive
+        The recorded drive (piston displacement, m) resampled to 1000 Hz.
+    measured : numpy.ndarray
+        Measured accelerations (m/s^2), shape (n_channels, n_samples) at 1000 Hz.
+    channels : tuple of str
+        Channel name of each row of ``measured`` (model sensor names).
+    drive_rms_m : float
+        Standard deviation of the drive (m).
+    filtered : numpy.ndarray, optional
+        ``measured`` through :func:`band_filter`, shape (n_channels, n_kept) (None: not computed).
+    scale : numpy.ndarray, optional
+        1 / band-limited rms of ``measured`` per channel (s^2/m), shape (n_channels,) (None: not computed).
+    """
 
     name: str
     drive: object  # exudyn_study.model.Drive
@@ -86,7 +104,18 @@ def _sos():
 
 
 def band_filter(x: np.ndarray) -> np.ndarray:
-    """Zero-phase 3-60 Hz band-pass, the start-up and 0.5 s at the end cut, decimated by 4."""
+    """Zero-phase 3-60 Hz band-pass, the start-up and 0.5 s at the end cut, decimated by 4.
+
+    Parameters
+    ----------
+    x : numpy.ndarray
+        Signals at 1000 Hz along the last axis, shape (..., n_samples).
+
+    Returns
+    -------
+    numpy.ndarray
+        Filtered signals at 250 Hz, shape (..., n_kept).
+    """
     y = sps.sosfiltfilt(_sos(), x, axis=-1)
     k0, k1 = int(SKIP_S * RATE_HZ), y.shape[-1] - int(0.5 * RATE_HZ)
     return y[..., k0:k1:4]
@@ -95,10 +124,26 @@ def band_filter(x: np.ndarray) -> np.ndarray:
 def prepare(recording, sensor_names, name: str = "", max_duration_s: float | None = None) -> RigRecording:
     """Align a recording with the model's sensors and resample its drive to 1000 Hz.
 
+    Parameters
+    ----------
+    recording : Recording
+        The recording: channels with ``role`` (one ``'drive'``, ``'response'`` accelerations at 1000 Hz).
+    sensor_names : sequence of str
+        The model's sensor names.
+    name : str, optional
+        Name of the recording, in messages and the result (default empty).
+    max_duration_s : float or None, optional
+        Longest compared duration (s), besides the skipped start and end (None: the whole recording).
+
     Raises
     ------
     InputError
         No drive channel, a channel the model lacks, a wrong acceleration rate, NaN.
+
+    Returns
+    -------
+    RigRecording
+        The recording aligned with the model's sensors.
     """
     from exudyn_study.model.rig import Drive
     from exudyn_study.signals.drives import resample
@@ -193,6 +238,22 @@ def drive_spectra(u: np.ndarray, y: np.ndarray, nperseg: int = 4096, overlap: bo
     segments are about half as independent: ``n_segments`` counts ``2 n / nperseg - 1``
     overlapped ones as is (the convention of the H1 variance used here), without overlap
     ``n / nperseg``.
+
+    Parameters
+    ----------
+    u : numpy.ndarray
+        Drive, shape (n_samples,), at 1000 Hz.
+    y : numpy.ndarray
+        Responses, shape (n_y, n_samples) (or (n_samples,) for one).
+    nperseg : int, optional
+        Welch segment length in samples (default 4096).
+    overlap : bool, optional
+        Whether segments overlap by 50 % (default True) or not at all.
+
+    Returns
+    -------
+    DriveSpectra
+        Auto and cross spectra and the number of independent segments.
     """
     y = np.atleast_2d(y)
     noverlap = None if overlap else 0
@@ -204,13 +265,37 @@ def drive_spectra(u: np.ndarray, y: np.ndarray, nperseg: int = 4096, overlap: bo
 
 
 def relative_errors(rec: RigRecording, simulated: np.ndarray) -> np.ndarray:
-    """Per-channel band-limited relative rms error (see :data:`METRIC`)."""
+    """Per-channel band-limited relative rms error (see :data:`METRIC`).
+
+    Parameters
+    ----------
+    rec : RigRecording
+        The recording.
+    simulated : numpy.ndarray
+        Simulated channels, shape (n_channels, n_samples), rows as ``rec.channels``.
+
+    Returns
+    -------
+    numpy.ndarray
+        Relative error per channel, shape (n_channels,) (1 = 100 %).
+    """
     e = band_filter(rec.measured - simulated)
     return np.sqrt(np.mean(e**2, axis=1)) * rec.scale
 
 
 def summary_error(per_channel: np.ndarray) -> float:
-    """Quadratic mean over channels."""
+    """Quadratic mean over channels.
+
+    Parameters
+    ----------
+    per_channel : array_like
+        Relative error per channel, shape (n_channels,).
+
+    Returns
+    -------
+    float
+        The quadratic mean.
+    """
     return float(np.sqrt(np.mean(np.asarray(per_channel) ** 2)))
 
 
@@ -234,7 +319,27 @@ def significance_map(
     min_effect: float = 0.005,
     p_value: float = 1e-3,
 ) -> SignificanceMap:
-    """Where the residual is significantly coherent with the drive (see the module docstring)."""
+    """Where the residual is significantly coherent with the drive (see the module docstring).
+
+    Parameters
+    ----------
+    rec : RigRecording
+        The recording.
+    simulated : numpy.ndarray
+        Simulated channels, shape (n_channels, n_samples), rows as ``rec.channels``.
+    nperseg : int, optional
+        Welch segment length in samples at 1000 Hz, without overlap (default 4096).
+    min_effect : float, optional
+        Least coherent residual amplitude relative to the response in a band for a cell to count
+        (default 0.005, i.e. 0.5 %).
+    p_value : float, optional
+        Family-wise false-alarm probability over all channel-band cells (default 1e-3).
+
+    Returns
+    -------
+    SignificanceMap
+        Per channel and band: z-score, coherent residual share and significance.
+    """
     k0 = int(SKIP_S * RATE_HZ)
     u = rec.drive.samples[k0:]
     e = (rec.measured - simulated)[:, k0:]

@@ -52,6 +52,18 @@ class Evaluator:
     discretisation (:func:`~exudyn_study.simulate.simulate_linear`), which it matches to
     the drive's band limit, except where slow or undamped rig modes (< 3 Hz) wrap around:
     good enough to rank candidates, not to fit them.
+
+    Parameters
+    ----------
+    recordings : list of RigRecording
+        Prepared recordings to simulate against.
+    sensor_names : sequence of str
+        The model's sensor names, in the order of its outputs.
+    pad_s : float, optional
+        Zero padding (s) of the drive for the convolution, longer than the slowest mode's decay
+        (default 30 s; see :func:`decay_time`).
+    exact : bool, optional
+        Whether every simulation is the exact discretisation instead of the convolution (default False).
     """
 
     F_MAX_HZ = 110.0
@@ -79,7 +91,20 @@ class Evaluator:
             self.spectra.append((n, n_fft, f[keep], spec[keep]))
 
     def simulate(self, lin, gains=None):
-        """Simulate ``lin`` (output ``gains``) at each recording; list of (n_channels, n_samples) arrays."""
+        """Simulate ``lin`` (output ``gains``) at each recording; list of (n_channels, n_samples) arrays.
+
+        Parameters
+        ----------
+        lin : LinearSystem or NonlinearSystem
+            The system (a nonlinear one is simulated exactly).
+        gains : numpy.ndarray or OutputChain or None, optional
+            Output gain per channel or a chain of acquisition stages (None: all one).
+
+        Returns
+        -------
+        list of numpy.ndarray
+            Per recording, the simulated channels, shape (n_channels, n_samples).
+        """
         from exudyn_study.linear.response import frf_linear
 
         if self.exact or isinstance(lin, NonlinearSystem):
@@ -102,7 +127,20 @@ class Evaluator:
         return [apply_output(b, gains, r.channels, RATE_HZ) for b, r in zip(base, self.recs, strict=True)]
 
     def simulate_exact(self, lin, gains=None):
-        """Simulate by exact discretisation (:func:`~exudyn_study.simulate.simulate_linear`)."""
+        """Simulate by exact discretisation (:func:`~exudyn_study.simulate.simulate_linear`).
+
+        Parameters
+        ----------
+        lin : LinearSystem or NonlinearSystem
+            The system (a nonlinear one by time integration of its local elements).
+        gains : numpy.ndarray or OutputChain or None, optional
+            Output gain per channel or a chain of acquisition stages (None: all one).
+
+        Returns
+        -------
+        list of numpy.ndarray
+            Per recording, the simulated channels, shape (n_channels, n_samples).
+        """
         from exudyn_study.linear.response import simulate_linear
 
         key = ("exact", id(lin))
@@ -126,7 +164,20 @@ class Evaluator:
         return [apply_output(b, gains, r.channels, RATE_HZ) for b, r in zip(base, self.recs, strict=True)]
 
     def residual_vector(self, lin, gains=None):
-        """Band-limited, per-channel scaled residual of all recordings, flattened."""
+        """Band-limited, per-channel scaled residual of all recordings, flattened.
+
+        Parameters
+        ----------
+        lin : LinearSystem or NonlinearSystem
+            The system.
+        gains : numpy.ndarray or OutputChain or None, optional
+            Output gain per channel or a chain of acquisition stages (None: all one).
+
+        Returns
+        -------
+        numpy.ndarray
+            The residuals of all recordings, each scaled by 1 / sqrt(its size), concatenated, shape (n_rows,).
+        """
         parts = []
         for r, sim in zip(self.recs, self.simulate(lin, gains), strict=True):
             e = band_filter(r.measured - sim) * r.scale[:, None]
@@ -134,7 +185,18 @@ class Evaluator:
         return np.concatenate(parts)
 
     def errors(self, sims):
-        """Per recording, the relative error per channel of the simulations ``sims``."""
+        """Per recording, the relative error per channel of the simulations ``sims``.
+
+        Parameters
+        ----------
+        sims : list of numpy.ndarray
+            Per recording, the simulated channels, shape (n_channels, n_samples), as :meth:`simulate` gives.
+
+        Returns
+        -------
+        list of numpy.ndarray
+            Per recording, the relative band-limited rms error per channel, shape (n_channels,).
+        """
         return [relative_errors(r, s) for r, s in zip(self.recs, sims, strict=True)]
 
 
@@ -150,6 +212,15 @@ class SpectralEvaluator:
     :class:`Evaluator` interface, so screening and fitting work unchanged. A system whose mass
     matrix is not positive definite raises :class:`~exudyn_study.errors.SimulationError` (its FRF
     exists, its time response diverges: a fit must not go there).
+
+    Parameters
+    ----------
+    recordings : list of RigRecording
+        Prepared recordings whose H1 transmissibilities are the targets.
+    sensor_names : sequence of str
+        The model's sensor names, in the order of its outputs.
+    nperseg : int, optional
+        Welch segment length in samples at 1000 Hz (default 4096).
     """
 
     def __init__(self, recordings, sensor_names, nperseg: int = 4096):
@@ -168,7 +239,25 @@ class SpectralEvaluator:
         self.n_effective = int(sum(w.size for w in self.weight))
 
     def residual_vector(self, lin, gains=None):
-        """Coherence-weighted log-magnitude residual of the transmissibilities, flattened."""
+        """Coherence-weighted log-magnitude residual of the transmissibilities, flattened.
+
+        Parameters
+        ----------
+        lin : LinearSystem or NonlinearSystem
+            The system (a nonlinear one by its linear tangent).
+        gains : numpy.ndarray or OutputChain or None, optional
+            Output gain per channel or a chain of acquisition stages (None: all one).
+
+        Returns
+        -------
+        numpy.ndarray
+            The weighted log-magnitude residuals of all recordings, concatenated, shape (n_rows,).
+
+        Raises
+        ------
+        SimulationError
+            If the system's mass matrix is not positive definite.
+        """
         from exudyn_study.errors import SimulationError
         from exudyn_study.linear.response import frf_linear
 
@@ -199,6 +288,16 @@ class DistortionEvaluator:
     channel as the training residual) fits a nonlinear candidate's parameters whatever linear
     error the model still has: the linear parts cancel in both. ``residual_vector`` has the
     :class:`Evaluator` interface (a linear system leaves the whole measured difference).
+
+    Parameters
+    ----------
+    pair : tuple
+        ``(c, a, b, n)`` of :func:`~exudyn_study.diagnose.rig_locate.level_pair`: the level ratio, the
+        weaker and the stronger recording (RigRecording) and the number of samples compared.
+    sensor_names : sequence of str
+        The model's sensor names, in the order of its outputs.
+    pad_s : float
+        Zero padding (s) passed to the inner exact :class:`Evaluator`.
     """
 
     def __init__(self, pair, sensor_names, pad_s: float):
@@ -217,7 +316,20 @@ class DistortionEvaluator:
         )
 
     def residual_vector(self, system, gains=None):
-        """Residual of the measured against the simulated level-dependent share, flattened."""
+        """Residual of the measured against the simulated level-dependent share, flattened.
+
+        Parameters
+        ----------
+        system : LinearSystem or NonlinearSystem
+            The system, simulated exactly at both levels.
+        gains : numpy.ndarray or OutputChain or None, optional
+            Output gain per channel or a chain of acquisition stages (None: all one).
+
+        Returns
+        -------
+        numpy.ndarray
+            The scaled residual, flattened, shape (n_channels * n_kept,).
+        """
         sim_a, sim_b = self.ev.simulate_exact(system, gains)
         model = band_filter(sim_b[:, : self.n] - self.c * sim_a[self.rows_a, : self.n]) * self.scale[:, None]
         e = self.target - model
@@ -229,6 +341,29 @@ def fit_hypothesis(h: Hypothesis, ev: Evaluator, channels, max_nfev=30, jac=None
 
     ``jac``: a Jacobian callable in the fitting variable (default finite differences: one
     evaluation per parameter and iteration); ``info`` gets the final Jacobian (``'jac'``).
+
+    Parameters
+    ----------
+    h : Hypothesis
+        The candidate; the fit starts at ``h.start``.
+    ev : Evaluator or SpectralEvaluator or DistortionEvaluator
+        Gives the residual vector of a system.
+    channels : sequence of str
+        The simulated channels, in row order (for the candidate's output gains).
+    max_nfev : int, optional
+        Maximum number of residual evaluations of the least-squares solver (default 30).
+    jac : callable or None, optional
+        Jacobian ``jac(x)`` in the fitting variable (None: two-point finite differences).
+    info : dict or None, optional
+        If given, receives the final Jacobian under ``'jac'``.
+
+    Returns
+    -------
+    tuple
+        ``(p, std, rss, at_bound, nfev)``: fitted parameters, their standard deviations (shape
+        (n_params,) each), residual sum of squares, whether each parameter ended at a bound, and the
+        number of evaluations. At an unstable start: the start, infinite deviations, ``rss = inf``,
+        all at bound.
     """
     from scipy.optimize import least_squares
 
@@ -273,7 +408,24 @@ def fit_hypothesis(h: Hypothesis, ev: Evaluator, channels, max_nfev=30, jac=None
 
 
 def safe_residual(h: Hypothesis, ev: Evaluator, channels, p):
-    """Return the candidate's residual vector at ``p`` (None where its system is unstable or singular)."""
+    """Return the candidate's residual vector at ``p`` (None where its system is unstable or singular).
+
+    Parameters
+    ----------
+    h : Hypothesis
+        The candidate.
+    ev : Evaluator or SpectralEvaluator or DistortionEvaluator
+        Gives the residual vector of a system.
+    channels : sequence of str
+        The simulated channels, in row order.
+    p : array_like
+        Parameter values, shape (n_params,).
+
+    Returns
+    -------
+    numpy.ndarray or None
+        The residual vector, or None if the simulation fails or is not finite.
+    """
     from exudyn_study.errors import SimulationError, StudyError
 
     try:
@@ -288,6 +440,11 @@ def per_recording(ev) -> list:
     """One evaluator per recording of ``ev`` (same residual rows as ``ev``'s part of that recording).
 
     Returns an empty list for an evaluator that is not per recording (the level-dependent share).
+
+    Parameters
+    ----------
+    ev : Evaluator or SpectralEvaluator or DistortionEvaluator
+        The pooled evaluator.
     """
     if isinstance(ev, SpectralEvaluator):
         return [SpectralEvaluator([r], ev.sensor_names) for r in ev.recs]
@@ -302,7 +459,22 @@ def per_recording(ev) -> list:
 
 
 def decay_time(lin, factor: float = 5.0, floor_s: float = 4.0) -> float:
-    """Zero padding for the convolution: ``factor`` times the slowest decay time of the modes below 200 Hz."""
+    """Zero padding for the convolution: ``factor`` times the slowest decay time of the modes below 200 Hz.
+
+    Parameters
+    ----------
+    lin : LinearSystem
+        The system whose modes (0.5-200 Hz) are examined.
+    factor : float, optional
+        Multiple of the slowest decay time ``-1 / Re(lambda)`` (default 5).
+    floor_s : float, optional
+        Least padding (s), also the result without modes in that range (default 4 s).
+
+    Returns
+    -------
+    float
+        Padding (s), at most 60 s.
+    """
     from exudyn_study.linear.system import state_space
 
     a = state_space(lin)[0]
@@ -315,7 +487,18 @@ def decay_time(lin, factor: float = 5.0, floor_s: float = 4.0) -> float:
 
 
 def effective_samples(ev: Evaluator) -> int:
-    """Independent residual samples: 2 x bandwidth x duration per channel."""
+    """Independent residual samples: 2 x bandwidth x duration per channel.
+
+    Parameters
+    ----------
+    ev : Evaluator or SpectralEvaluator or DistortionEvaluator
+        The evaluator (its ``n_effective`` if it has one).
+
+    Returns
+    -------
+    int
+        Number of independent residual samples.
+    """
     from exudyn_study.diagnose.rig_compare import BAND_HZ, RATE_HZ
 
     if hasattr(ev, "n_effective"):
@@ -328,12 +511,40 @@ def effective_samples(ev: Evaluator) -> int:
 
 
 def aic(rss: float, k: int, n_eff: int) -> float:
-    """Akaike information criterion of a residual sum of squares ``rss`` with ``k`` parameters."""
+    """Akaike information criterion of a residual sum of squares ``rss`` with ``k`` parameters.
+
+    Parameters
+    ----------
+    rss : float
+        Residual sum of squares.
+    k : int
+        Number of fitted parameters.
+    n_eff : int
+        Number of independent samples (:func:`effective_samples`).
+
+    Returns
+    -------
+    float
+        ``n_eff ln(rss / n_eff) + 2 k`` (lower is better).
+    """
     return n_eff * math.log(max(rss, 1e-300) / n_eff) + 2 * k
 
 
 def catalogue_default(physics: str, name: str) -> float:
-    """Return the catalogue default of parameter ``name`` of entry ``physics``."""
+    """Return the catalogue default of parameter ``name`` of entry ``physics``.
+
+    Parameters
+    ----------
+    physics : str
+        Name of the catalogue entry.
+    name : str
+        Name of the entry's parameter.
+
+    Returns
+    -------
+    float
+        The parameter's default value, in its unit.
+    """
     from exudyn_study.physics.catalogue import entry
 
     return float(entry(physics).parameter(name).default)
@@ -345,17 +556,59 @@ def holdout_error(ev_hold: Evaluator, system, gains) -> float:
     The joint fit judges its members with the convolution (``exact=False``): a member taken
     out at its neutral values (a joint as stiff as the catalogue allows) has modes far above
     the band that the exact discretisation cannot always resolve (non-finite), the FRF can.
+
+    Parameters
+    ----------
+    ev_hold : Evaluator
+        Evaluator of the held-out recordings.
+    system : LinearSystem or NonlinearSystem
+        The model.
+    gains : numpy.ndarray or OutputChain or None
+        Output gain per channel or a chain of acquisition stages (None: all one).
+
+    Returns
+    -------
+    float
+        Mean summary error (relative rms, 1 = 100 %).
     """
     return float(np.mean(holdout_errors(ev_hold, system, gains)))
 
 
 def holdout_errors(ev_hold: Evaluator, system, gains) -> np.ndarray:
-    """Per held-out recording, the summary error of ``system`` (see :func:`holdout_error`)."""
+    """Per held-out recording, the summary error of ``system`` (see :func:`holdout_error`).
+
+    Parameters
+    ----------
+    ev_hold : Evaluator
+        Evaluator of the held-out recordings.
+    system : LinearSystem or NonlinearSystem
+        The model.
+    gains : numpy.ndarray or OutputChain or None
+        Output gain per channel or a chain of acquisition stages (None: all one).
+
+    Returns
+    -------
+    numpy.ndarray
+        Summary error per held-out recording, shape (n_recordings,).
+    """
     return np.array([summary_error(e) for e in ev_hold.errors(ev_hold.simulate(system, gains))])
 
 
 def response_ratio(recs, sims) -> float:
-    """Median over channels of the band-limited rms of the simulation over that of the measurement."""
+    """Median over channels of the band-limited rms of the simulation over that of the measurement.
+
+    Parameters
+    ----------
+    recs : list of RigRecording
+        The recordings (their ``scale``: 1 / band-limited rms of the measurement per channel).
+    sims : list of numpy.ndarray
+        Per recording, the simulated channels, shape (n_channels, n_samples).
+
+    Returns
+    -------
+    float
+        The median ratio (1: the simulation is as strong as the measurement).
+    """
     ratios = [
         np.sqrt(np.mean(band_filter(s_) ** 2, axis=1)) * r.scale for r, s_ in zip(recs, sims, strict=True)
     ]
@@ -369,6 +622,13 @@ def set_offsets(evaluators, system) -> None:
     taken as its linear response plus the current model's nonlinear correction (exact
     nonlinear minus linear-tangent simulation, per recording): the correction's change with
     a linear candidate is of second order. Exact simulations of the accepted model follow.
+
+    Parameters
+    ----------
+    evaluators : iterable of Evaluator
+        Evaluators whose ``offset`` and cache are set.
+    system : LinearSystem or NonlinearSystem
+        The current model (a linear one clears the offsets).
     """
     for ev in evaluators:
         ev.offset = None
@@ -381,7 +641,22 @@ def set_offsets(evaluators, system) -> None:
 
 
 def combined_gains(h: Hypothesis, p, channels):
-    """Return the candidate's output gains times those already found (None: all one)."""
+    """Return the candidate's output gains times those already found (None: all one).
+
+    Parameters
+    ----------
+    h : Hypothesis
+        The candidate (its ``base_gains``, if any, are the gains already found).
+    p : array_like
+        Parameter values, shape (n_params,).
+    channels : sequence of str
+        The simulated channels, in row order.
+
+    Returns
+    -------
+    numpy.ndarray or OutputChain or None
+        Gain per channel, a chain of acquisition stages (earlier ones first), or None.
+    """
     base = getattr(h, "base_gains", None)
     g = h.gains(p, channels)
     if g is None:
@@ -411,6 +686,23 @@ def fit_per_recording(h: Hypothesis, p, firm_good, ev, channels, st, jac=None) -
     The first condition alone would reject on the small standard deviations of long records, which
     the residual's correlation makes optimistic; the second alone would reject parameters a
     recording barely sees.
+
+    Parameters
+    ----------
+    h : Hypothesis
+        The candidate; its ``start`` is restored afterwards.
+    p : array_like
+        The pooled fit's parameters, shape (n_params,).
+    firm_good : array_like of bool
+        Per parameter, whether it is identifiable in the pooled fit (only those are tested).
+    ev : Evaluator or SpectralEvaluator
+        The pooled evaluator (split with :func:`per_recording`).
+    channels : sequence of str
+        The simulated channels, in row order.
+    st : RigDiagnosisSettings
+        Settings (``drift_nfev``, ``drift_sigma``, ``drift_rel_tol``).
+    jac : numpy.ndarray or None, optional
+        The pooled Jacobian in the fitting variable, shape (n_rows, n_params) (None: finite differences).
 
     Returns
     -------

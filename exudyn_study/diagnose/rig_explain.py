@@ -19,7 +19,18 @@ from exudyn_study.diagnose.schema import Finding
 
 
 def recording_label(name) -> str:
-    """Return a recording's label in the JSON and the report: its file name (else the name as given)."""
+    """Return a recording's label in the JSON and the report: its file name (else the name as given).
+
+    Parameters
+    ----------
+    name : str or path-like
+        The recording's name as given (often a path).
+
+    Returns
+    -------
+    str
+        The part after the last ``/``.
+    """
     return str(name).rsplit("/", 1)[-1]
 
 
@@ -29,6 +40,35 @@ def make_finding(
     """Return the :class:`Finding` of hypothesis ``h`` at ``p``; a parameter at its bound is flagged.
 
     ``place``: optional location keys of a finding at a point (``position_m``, ``nearest_sensor``).
+
+    Parameters
+    ----------
+    h : Hypothesis
+        The fitted hypothesis (physics, parameter names and units, sensors, component, interface).
+    p : array_like
+        Fitted parameter values, shape (n_params,).
+    std : array_like
+        Standard deviation of each parameter, shape (n_params,).
+    at_bound : array_like of bool
+        Per parameter, whether the fit ended at its bound, shape (n_params,).
+    flags : sequence of str
+        Further doubts about the finding, one sentence each.
+    band_hz : tuple of float or None
+        Band (Hz) of the mismatch the finding explains.
+    level_dependent : bool
+        Whether the mismatch changes with the excitation level.
+    explanation : str
+        Plain-language explanation (:func:`explain`).
+    fit : dict
+        Errors before and after (``train_before``, ``train_after``, ``holdout_before``,
+        ``holdout_after``, ``metric``; see :class:`~exudyn_study.diagnose.schema.Finding`).
+    place : dict or None, optional
+        Location keys of a finding at a point (``position_m``, ``nearest_sensor``; None: none).
+
+    Returns
+    -------
+    Finding
+        The finding, with a flag per parameter at its bound.
     """
     params = {
         n: {"value": float(v), "unit": u, "std": float(s_), "at_bound": bool(b)}
@@ -60,6 +100,18 @@ def point_of(h, markers) -> dict:
     """Return ``position_m`` and ``nearest_sensor`` of a hypothesis at a point (empty if not at one).
 
     ``markers``: location -> (marker, global position) of the model (sensors and interfaces).
+
+    Parameters
+    ----------
+    h : Hypothesis
+        The hypothesis (a ``position_m`` attribute, else its ``location`` looked up in ``markers``).
+    markers : dict
+        The model's locations (sensors and interfaces) -> (marker, global position in m).
+
+    Returns
+    -------
+    dict
+        ``position_m`` (list of three floats, m) and ``nearest_sensor`` (str), or empty.
     """
     if getattr(h, "position_m", None) is not None:  # a mesh-node place of the structure screen
         pos = np.asarray(h.position_m, dtype=float)
@@ -80,6 +132,24 @@ def explain_local_element(h, p, std, place: dict, closest) -> str:
 
     ``closest``: (label, share of the residual explained at screening) of the round's best catalogue
     candidates.
+
+    Parameters
+    ----------
+    h : Hypothesis
+        The generic local element's hypothesis (location and component).
+    p : array_like
+        Fitted ``(stiffness N/m, damping N s/m)``.
+    std : array_like
+        Their standard deviations, same units.
+    place : dict
+        ``position_m`` and ``nearest_sensor`` of the place (:func:`point_of`; may be empty).
+    closest : sequence of tuple
+        ``(label, share of the residual explained at screening)`` of the best catalogue candidates.
+
+    Returns
+    -------
+    str
+        The explanation.
     """
     k, c = (float(v) for v in p)
     sk, sc = (float(v) for v in std)
@@ -97,7 +167,18 @@ def explain_local_element(h, p, std, place: dict, closest) -> str:
 
 
 def modes_hz(lin):
-    """Undamped natural frequencies of ``lin`` (its linear tangent), Hz."""
+    """Undamped natural frequencies of ``lin`` (its linear tangent), Hz.
+
+    Parameters
+    ----------
+    lin : LinearSystem or NonlinearSystem
+        The system (a nonlinear one by its linear tangent).
+
+    Returns
+    -------
+    numpy.ndarray
+        Natural frequencies (Hz), ascending, shape (n_dof,).
+    """
     import scipy.linalg as sla
 
     lin = getattr(lin, "lin", lin)  # a NonlinearSystem: its linear tangent
@@ -106,7 +187,23 @@ def modes_hz(lin):
 
 
 def shifted_modes(lin0, lin1, f_max=60.0):
-    """Return the three modes below ``f_max`` that moved most from ``lin0`` to ``lin1`` and the new ones."""
+    """Return the three modes below ``f_max`` that moved most from ``lin0`` to ``lin1`` and the new ones.
+
+    Parameters
+    ----------
+    lin0 : LinearSystem or NonlinearSystem
+        The model before the finding.
+    lin1 : LinearSystem or NonlinearSystem
+        The model with the finding.
+    f_max : float, optional
+        Highest mode considered (Hz; default 60). Modes below 1 Hz are left out.
+
+    Returns
+    -------
+    tuple
+        ``(pairs, new)``: up to three ``(before Hz, after Hz)`` pairs, largest relative shift first,
+        and the modes of ``lin1`` (Hz) more than 3 % from every mode of ``lin0``.
+    """
     f0, f1 = modes_hz(lin0), modes_hz(lin1)
     f0, f1 = f0[(f0 > 1.0) & (f0 < f_max)], f1[(f1 > 1.0) & (f1 < f_max)]
     pairs = []
@@ -119,7 +216,28 @@ def shifted_modes(lin0, lin1, f_max=60.0):
 
 
 def explain(h: Hypothesis, p, std, lin0, lin1, located) -> str:
-    """Plain-language explanation of a finding: its registered ``explain`` callable, else a generic text."""
+    """Plain-language explanation of a finding: its registered ``explain`` callable, else a generic text.
+
+    Parameters
+    ----------
+    h : Hypothesis
+        The fitted hypothesis.
+    p : array_like
+        Fitted parameter values, shape (n_params,).
+    std : array_like
+        Standard deviation of each parameter, shape (n_params,).
+    lin0 : LinearSystem or NonlinearSystem
+        The model before the finding.
+    lin1 : LinearSystem or NonlinearSystem
+        The model with the finding.
+    located : sequence of str
+        Channels where the mismatch was located (the first six are named).
+
+    Returns
+    -------
+    str
+        The explanation.
+    """
     v = {n: (float(a), float(s)) for n, a, s in zip(h.names, p, std, strict=True)}
     pairs, new = shifted_modes(lin0, lin1)
     shifts = ", ".join(f"{a:.2f} -> {b:.2f} Hz" for a, b in pairs if abs(b - a) > 0.005)
@@ -144,6 +262,15 @@ def residual_carriers(cells, maps, share: float = CARRIER_SHARE) -> tuple:
     recordings, :class:`~exudyn_study.diagnose.rig_compare.SignificanceMap`); channels are taken
     strongest first until they hold ``share`` of it, then the narrowest run of bands holding
     ``share`` of those channels' energy.
+
+    Parameters
+    ----------
+    cells : numpy.ndarray of bool
+        Significant cells, shape (n_channels, n_bands).
+    maps : list of SignificanceMap
+        The recordings' significance maps (their ``effect`` and ``significant``).
+    share : float, optional
+        Share of the coherent residual energy to hold (default :data:`CARRIER_SHARE`).
 
     Returns
     -------
@@ -178,6 +305,27 @@ def unexplained_entry(cells, channels, level_dependent, text, maps=None, best_pl
     sensors and the band that carry :data:`CARRIER_SHARE` of the residual (:func:`residual_carriers`),
     all significant sensors besides; ``best_places``: (label, share explained) of the best candidates
     the last screening found, named in the text.
+
+    Parameters
+    ----------
+    cells : numpy.ndarray of bool
+        Significant cells left unexplained, shape (n_channels, n_bands of :data:`BANDS_HZ`).
+    channels : sequence of str
+        Channel name of each row of ``cells``.
+    level_dependent : bool
+        Whether the residual changes with the excitation level.
+    text : str
+        Closing sentence of the explanation (why nothing explains it).
+    maps : list of SignificanceMap or None, optional
+        The recordings' significance maps (None: all significant sensors and bands are named).
+    best_places : sequence of tuple, optional
+        ``(label, share explained)`` of the best candidates of the last screening (default none).
+
+    Returns
+    -------
+    dict
+        ``location``, ``band_hz``, ``level_dependent``, ``all_sensors``, ``best_places`` and
+        ``explanation``.
     """
     rows = np.flatnonzero(cells.any(axis=1))
     cols = np.flatnonzero(cells.any(axis=0))
@@ -217,7 +365,26 @@ def unexplained_entry(cells, channels, level_dependent, text, maps=None, best_pl
 
 
 def model_transmissibility(lin, freq, channels, sensor_names, gains=None):
-    """Model transmissibility (sensor acceleration / drive acceleration) at ``freq``, (n_channels, n_f)."""
+    """Model transmissibility (sensor acceleration / drive acceleration) at ``freq``, (n_channels, n_f).
+
+    Parameters
+    ----------
+    lin : LinearSystem or NonlinearSystem
+        The model (a nonlinear one by its linear tangent).
+    freq : numpy.ndarray
+        Frequencies (Hz), shape (n_f,), none zero.
+    channels : sequence of str
+        Channels to return, in row order.
+    sensor_names : sequence of str
+        The model's sensor names, in the order of its outputs.
+    gains : numpy.ndarray or OutputChain or None, optional
+        Output gain per channel or a chain of acquisition stages (None: all one).
+
+    Returns
+    -------
+    numpy.ndarray
+        Complex transmissibility, shape (n_channels, n_f).
+    """
     from exudyn_study.linear.response import frf_linear
 
     idx = [list(sensor_names).index(c) for c in channels]
@@ -228,7 +395,26 @@ def model_transmissibility(lin, freq, channels, sensor_names, gains=None):
 
 
 def figures_before(figures, named, recs, sims, lin0, sensor_names, maps):
-    """Residual map (model error power / noise power per bin), measured and nominal transmissibilities."""
+    """Residual map (model error power / noise power per bin), measured and nominal transmissibilities.
+
+    Parameters
+    ----------
+    figures : dict
+        Figure data, updated in place (``channels``, ``freq_hz``, ``labels``, ``levels``,
+        ``residual_map``, ``bands_hz``, ``measured``, ``nominal_T``).
+    named : sequence of tuple
+        ``(name, recording)`` of each recording, training then held out.
+    recs : list of RigRecording
+        The prepared recordings, in the order of ``named``.
+    sims : list of numpy.ndarray
+        Simulations of the nominal model per recording, shape (n_channels, n_samples).
+    lin0 : LinearSystem or NonlinearSystem
+        The nominal model.
+    sensor_names : sequence of str
+        The model's sensor names, in the order of its outputs.
+    maps : list of SignificanceMap
+        The recordings' significance maps (unused: the map is recomputed per frequency bin).
+    """
     k0 = 1000
     labels = [recording_label(n) for n, _ in named]
     rmaps, measured, levels = [], {}, []

@@ -41,6 +41,32 @@ def fit_on_distortion(cands, ctx, ev_d, ev_time, channels, system, gains, st, sa
     at least ``min_improvement`` of it (``1 - rms after / rms before``), its parameters are
     identifiable and its model keeps the response on (``ev_time``: the training recordings).
     Returns fit records like the single fits (``rejected`` None if acceptable).
+
+    Parameters
+    ----------
+    cands : sequence of RigCandidate
+        The deferred simulated candidates.
+    ctx : CandidateContext
+        What the candidates' factories need (model builder, places, sensors).
+    ev_d : DistortionEvaluator
+        Evaluator of the level-dependent share.
+    ev_time : Evaluator
+        Evaluator of the training recordings (time histories), for the error after and the response ratio.
+    channels : sequence of str
+        The simulated channels, in row order.
+    system : LinearSystem or NonlinearSystem
+        The current model.
+    gains : numpy.ndarray or OutputChain or None
+        Output gains already found (None: all one).
+    st : RigDiagnosisSettings
+        Settings (``screen_nfev``, ``min_screen_share``, ``n_fit_simulated``, ``fit_nfev_simulated``,
+        ``max_relative_std``, ``min_improvement``, ``min_response_ratio``).
+    say : callable
+        Progress messages, ``say(text)``.
+    meta : dict
+        The diagnosis metadata; the fits are appended to ``meta['candidates']``.
+    round_no : int
+        Index of the round (0 for the first).
     """
     hyps = [h for cand in cands for h in hypotheses_of(cand, ctx)]
     if not hyps:
@@ -117,6 +143,22 @@ def polish(f: dict, ev: Evaluator, channels, recs, st, say) -> None:
     Near the truth the time-domain fit is the sharper one (the blind benchmark's single
     effects); far from it (other effects still missing) it runs towards switching the
     response off, and the log-spectral fit is kept.
+
+    Parameters
+    ----------
+    f : dict
+        Fit record of the spectral fit (``h``, ``p``, ``rss_time``, ...); updated in place (``p``,
+        ``std``, ``rss_time``, ``at_bound``, ``polished``) if the time-domain fit is taken.
+    ev : Evaluator
+        Evaluator of the training recordings (time histories).
+    channels : sequence of str
+        The simulated channels, in row order.
+    recs : list of RigRecording
+        The training recordings (for the response ratio).
+    st : RigDiagnosisSettings
+        Settings (``polish_nfev``, ``min_response_ratio``, ``max_relative_std``).
+    say : callable
+        Progress messages, ``say(text)``.
     """
     h = f["h"]
     h.start = np.asarray(f["p"], dtype=float)
@@ -139,6 +181,18 @@ def batch_of(ok, max_batch: int) -> list:
 
     Only linear candidates join a batch, each at a component (body, joint's component, the
     linkage) no earlier member touches, and a sensor gain only at another sensor.
+
+    Parameters
+    ----------
+    ok : list of dict
+        Acceptable fit records, best first (not empty).
+    max_batch : int
+        Largest number of findings a round takes.
+
+    Returns
+    -------
+    list of dict
+        The batch's fit records.
     """
     batch = [ok[0]]
     if not ok[0]["h"].kind_linear:
@@ -170,7 +224,23 @@ def _chosen(screening: Screening, st) -> list:
 
 
 def fit_one(problem: RigProblem, screening: Screening, i: int) -> dict:
-    """Fit screened candidate ``i`` in full; its fit record (judged by :func:`judge`)."""
+    """Fit screened candidate ``i`` in full; its fit record (judged by :func:`judge`).
+
+    Parameters
+    ----------
+    problem : RigProblem
+        The recordings, evaluators and settings.
+    screening : Screening
+        The round's screening (hypotheses, scores, the evaluator each is judged on).
+    i : int
+        Index of the candidate in ``screening.hyps``.
+
+    Returns
+    -------
+    dict
+        Fit record: ``h``, ``p``, ``std``, ``rss``, ``aic``, ``identifiable``, ``good``, ``at_bound``,
+        ``improvement``, ``error_after``, ``rss_time``, ``response_ratio``, ``score``, ``nfev``.
+    """
     st, channels = problem.settings, problem.channels
     h = screening.hyps[i]
     ev_fit, rss0, spectral = screening.judged_on(h)
@@ -214,7 +284,20 @@ def fit_one(problem: RigProblem, screening: Screening, i: int) -> dict:
 
 
 def judge(f: dict, st) -> str | None:
-    """Why a single fit is rejected (None: acceptable)."""
+    """Why a single fit is rejected (None: acceptable).
+
+    Parameters
+    ----------
+    f : dict
+        Fit record (``identifiable``, ``improvement``, ``response_ratio``).
+    st : RigDiagnosisSettings
+        Settings (``min_improvement``, ``min_response_ratio``).
+
+    Returns
+    -------
+    str or None
+        The reason for rejection, or None.
+    """
     if not f["identifiable"]:
         return "not identifiable"
     if f["improvement"] < st.min_improvement:
@@ -229,6 +312,15 @@ def check_drift(problem: RigProblem, screening: Screening, fitted: list) -> None
 
     Only the fits the round would take (the best acceptable one and its batch; a fit rejected here
     lets the next one in): each check costs about one fit per recording.
+
+    Parameters
+    ----------
+    problem : RigProblem
+        The recordings, evaluators and settings.
+    screening : Screening
+        The round's screening (the evaluator each fit is judged on).
+    fitted : list of dict
+        The round's fit records; ``drift`` and ``rejected`` are set in place.
     """
     st = problem.settings
     while True:
@@ -272,6 +364,24 @@ def fit_round(
     """Fit the round's best-screened candidates one by one; jointly if none is acceptable in a spectral round.
 
     Appends the fits to ``meta['candidates']``.
+
+    Parameters
+    ----------
+    problem : RigProblem
+        The recordings, evaluators and settings.
+    state : ModelState
+        The current model.
+    screening : Screening
+        The round's screening.
+    meta : dict
+        The diagnosis metadata; the fits are appended to ``meta['candidates']``.
+    round_no : int
+        Index of the round (0 for the first).
+
+    Returns
+    -------
+    RoundFits
+        All fits and the acceptable ones (``together``: they come from a joint fit).
     """
     from exudyn_study.diagnose.rig_fit_together import fit_together
 
@@ -309,7 +419,28 @@ def fit_round(
 def fit_nonlinear(
     problem: RigProblem, state: ModelState, screening: Screening, fits: RoundFits, meta: dict, round_no: int
 ) -> RoundFits:
-    """Fit the deferred simulated candidates on the level-dependent share (after the linear ``fits``)."""
+    """Fit the deferred simulated candidates on the level-dependent share (after the linear ``fits``).
+
+    Parameters
+    ----------
+    problem : RigProblem
+        The recordings, evaluators and settings.
+    state : ModelState
+        The current model.
+    screening : Screening
+        The round's screening (its ``deferred`` simulated candidates and context).
+    fits : RoundFits
+        The round's linear fits.
+    meta : dict
+        The diagnosis metadata; the fits are appended to ``meta['candidates']``.
+    round_no : int
+        Index of the round (0 for the first).
+
+    Returns
+    -------
+    RoundFits
+        ``fits``' fits and the nonlinear ones; the acceptable nonlinear ones; their wall time (s).
+    """
     from dataclasses import replace
 
     t0 = time.perf_counter()
@@ -333,7 +464,22 @@ def fit_nonlinear(
 
 
 def choose_batch(problem: RigProblem, screening: Screening, fits: RoundFits) -> list:
-    """Return the round's findings: the best fit by AIC and its batch; spectral fits polished in time."""
+    """Return the round's findings: the best fit by AIC and its batch; spectral fits polished in time.
+
+    Parameters
+    ----------
+    problem : RigProblem
+        The recordings, evaluators and settings.
+    screening : Screening
+        The round's screening.
+    fits : RoundFits
+        The round's fits.
+
+    Returns
+    -------
+    list of dict
+        Fit records of the round's findings.
+    """
     ok = sorted(fits.ok, key=lambda f: f["aic"])
     if len({screening.judged_on(f["h"])[2] for f in ok}) > 1:
         # fits judged on log transmissibilities and on time histories: their AICs do not compare,
@@ -361,6 +507,26 @@ def fit_generic(
 
     Each element is told its place (coordinates, nearest sensor) and the round's closest catalogue
     candidates (by screening score), which its explanation names.
+
+    Parameters
+    ----------
+    problem : RigProblem
+        The recordings, evaluators and settings.
+    state : ModelState
+        The current model.
+    screening : Screening
+        The round's screening (context, catalogue scores).
+    fits : RoundFits
+        The round's fits so far.
+    meta : dict
+        The diagnosis metadata; the fits are appended to ``meta['candidates']``.
+    round_no : int
+        Index of the round (0 for the first).
+
+    Returns
+    -------
+    RoundFits
+        ``fits``' fits and the generic ones; the acceptable generic ones (``fits`` if there are no places).
     """
     from dataclasses import replace
 

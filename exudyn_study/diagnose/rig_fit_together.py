@@ -34,7 +34,23 @@ from exudyn_study.diagnose.rig_state import Comparison, ModelState, Progress, Ri
 
 
 def member_neutral(comp, k: int, p) -> dict | None:
-    """Composite parameter index -> value with member ``k`` taken out (its ``neutral`` values), or None."""
+    """Composite parameter index -> value with member ``k`` taken out (its ``neutral`` values), or None.
+
+    Parameters
+    ----------
+    comp : CompositeHypothesis
+        The joint fit's composite.
+    k : int
+        Index of the member in ``comp.members``.
+    p : array_like
+        The composite's fitted values, shape (n_params,); member ``k``'s parameters without a
+        neutral value keep theirs.
+
+    Returns
+    -------
+    dict or None
+        Composite parameter index -> held value, or None if the member has no ``neutral`` values.
+    """
     h = comp.members[k]
     if not h.neutral:
         return None
@@ -51,6 +67,17 @@ def prior_starts(comp, members, start_a, all_prior: bool) -> list:
     The second start puts the best-screened physics (``members[0]``'s) at its prior start
     (:attr:`Hypothesis.prior`), the third (``all_prior``) every member; the others keep their
     values in ``start_a``. A start equal to an earlier one is left out.
+
+    Parameters
+    ----------
+    comp : CompositeHypothesis
+        The joint fit's composite (its ``specs`` and bounds).
+    members : list of Hypothesis
+        The composite's members, best-screened first.
+    start_a : numpy.ndarray
+        The first start, shape (n_params,).
+    all_prior : bool
+        Whether a third start puts every member at its prior start.
     """
     top = members[0].physics
     wanted = [(f"{top} at its prior start", {top})]
@@ -104,6 +131,40 @@ def fit_together(
     and keep the response on.
 
     Returns fit records like the single fits (one per member kept), or an empty list.
+
+    Parameters
+    ----------
+    hyps : list of Hypothesis
+        The round's screened hypotheses.
+    scores : list of float
+        Their screening scores, in the order of ``hyps``.
+    build : callable
+        Returns a fresh, unassembled model of the current round.
+    ev_fit : Evaluator or SpectralEvaluator
+        Evaluator the joint fit runs on.
+    ev_time : Evaluator
+        Evaluator of the training recordings (time histories).
+    ev_hold : Evaluator
+        Evaluator of the held-out recordings (convolution).
+    system_now : LinearSystem or NonlinearSystem
+        The current model (the held-out error before).
+    channels : sequence of str
+        The simulated channels, in row order.
+    recs : list of RigRecording
+        The training recordings (for the response ratio).
+    gains : numpy.ndarray or OutputChain or None
+        Output gains already found (None: all one).
+    rss0 : float
+        Residual sum of squares of the current model on ``ev_fit``.
+    st : RigDiagnosisSettings
+        Settings (``composite_max``, ``composite_damping``, ``member_nfev``, ``min_member_gain``,
+        ``max_relative_std``, ...).
+    say : callable
+        Progress messages, ``say(text)``.
+    meta : dict
+        The diagnosis metadata; the members are appended to ``meta['candidates']``.
+    round_no : int
+        Index of the round (0 for the first).
     """
     from exudyn_study.diagnose.rig_hypotheses import CompositeHypothesis
 
@@ -174,7 +235,23 @@ def fit_together(
 
 @dataclass(frozen=True)
 class JointFit:
-    """A joint fit: values ``p``, ``std``, training ``rss``, ``at_bound``, Jacobian ``jac``, ``nfev``."""
+    """A joint fit: values ``p``, ``std``, training ``rss``, ``at_bound``, Jacobian ``jac``, ``nfev``.
+
+    Parameters
+    ----------
+    p : numpy.ndarray
+        Fitted composite parameters, shape (n_params,).
+    std : numpy.ndarray
+        Their standard deviations, shape (n_params,).
+    rss : float
+        Training residual sum of squares.
+    at_bound : numpy.ndarray of bool
+        Per parameter, whether it ended at a bound.
+    jac : numpy.ndarray or None
+        Final Jacobian in the fitting variable, shape (n_rows, n_params) (None: not kept).
+    nfev : int
+        Number of residual evaluations.
+    """
 
     p: np.ndarray
     std: np.ndarray
@@ -422,6 +499,27 @@ def final_refit(
     above ``max_relative_std``) and (with two or more recordings) parameters that drift between the
     recordings (:func:`fit_per_recording`) are flagged.
 
+    Parameters
+    ----------
+    records : list of dict
+        Records of the findings (``h``: the hypothesis, ``accepted``: its index in ``accepted`` or None).
+    accepted : list of tuple
+        The carried findings ``(physics, location, values)``, in the order applied to the model.
+    build : callable
+        Returns a fresh, unassembled nominal model.
+    ev : Evaluator or SpectralEvaluator
+        Evaluator the refit runs on.
+    channels : sequence of str
+        The simulated channels, in row order.
+    gains : numpy.ndarray or OutputChain or None
+        Output gains already found (None: all one).
+    st : RigDiagnosisSettings
+        Settings (``max_relative_std``, drift settings, ...).
+    say : callable
+        Progress messages, ``say(text)``.
+    hold_at_bound : bool, optional
+        Whether parameters that ended at a bound in their round are held there (default True).
+
     Returns
     -------
     dict or None
@@ -584,6 +682,19 @@ def refit_findings(
     that ended at a bound in their rounds held there (freed, the undetermined ones can wander on the
     noise). A refit is adopted if it lowers the training residual and does not raise the held-out
     error; ``meta['final_refit']`` records the attempts.
+
+    Parameters
+    ----------
+    problem : RigProblem
+        The recordings, evaluators and settings.
+    state : ModelState
+        The current model.
+    comparison : Comparison
+        The current model against the recordings.
+    progress : Progress
+        The findings and their records so far.
+    meta : dict
+        The diagnosis metadata; ``meta['final_refit']`` is set.
 
     Returns
     -------

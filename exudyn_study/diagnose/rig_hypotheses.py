@@ -66,7 +66,21 @@ __all__ = [
 
 
 def project(full_m, full_c, full_k, base: LinearSystem) -> LinearSystem:
-    """Return the constrained system of full matrices with ``base``'s null space, drive shape and sensors."""
+    """Return the constrained system of full matrices with ``base``'s null space, drive shape and sensors.
+
+    Parameters
+    ----------
+    full_m, full_c, full_k : numpy.ndarray
+        Unprojected mass (kg), damping (N s/m) and stiffness (N/m) matrices, shape (n_q, n_q), in the
+        coordinates of ``base``.
+    base : LinearSystem
+        System whose null space, drive shape, sensor map, sensor names and metadata the result takes.
+
+    Returns
+    -------
+    LinearSystem
+        The constrained (symmetrised) system with the full matrices kept as ``full_mass`` etc.
+    """
     n = base.nullspace
     r = base.drive_shape
     mz, cz, kz = (n @ a @ n.T for a in (full_m, full_c, full_k))
@@ -91,7 +105,47 @@ def project(full_m, full_c, full_k, base: LinearSystem) -> LinearSystem:
 
 @dataclass
 class Hypothesis:
-    """Base: ``physics`` at ``location`` with parameters (names, units, bounds, start values)."""
+    """Base: ``physics`` at ``location`` with parameters (names, units, bounds, start values).
+
+    Parameters
+    ----------
+    physics : str
+        Name of the catalogue entry (or the diagnosis's own physics, such as ``'local_element'``).
+    location : str or None
+        Where the entry acts: a catalogue location, a marker, a channel, or None for a global entry.
+    names : tuple of str
+        Names of the fitted parameters.
+    units : tuple of str
+        Unit of each parameter (``'1'`` for a dimensionless one).
+    lower, upper : numpy.ndarray
+        Lower and upper bound of each parameter, shape (n_params,).
+    start : numpy.ndarray
+        Start value of each parameter, shape (n_params,); screening may move it.
+    component : str or None, optional
+        Rig component the location belongs to (None: not tied to one).
+    sensors : tuple of str, optional
+        Channels near the location (empty: none named).
+    interface : str or None, optional
+        Interface of ``component`` the location lies on (None: none).
+    fixed : dict, optional
+        Entry values carried with the finding besides the fitted ones (e.g. a fixed band).
+    apply_location : str or None, optional
+        The entry's ``location`` argument when carried (None: ``location``).
+    carry : {'model', 'gains'}, optional
+        ``'model'``: the entry is applied to the next round's model; ``'gains'``: only output gains.
+    may_vanish : tuple of str, optional
+        Parameters that may come out unidentifiable without rejecting the candidate, as long as one
+        parameter is identifiable.
+    screen_grid : tuple or None, optional
+        Screening grid of a one-parameter candidate (None: scored by a short fit).
+    neutral : dict or None, optional
+        Parameter values at which the candidate leaves the current model's response unchanged (None:
+        the member cannot be taken out of a joint fit).
+    one_per_component : bool, optional
+        Whether a joint fit takes at most one candidate of this physics per component (default True).
+    prior : dict, optional
+        Prior start values by parameter name, a joint fit's second start (empty: taken from ``start``).
+    """
 
     physics: str
     location: str | None
@@ -132,7 +186,23 @@ class Hypothesis:
             self.prior = {n: float(v) for n, v in zip(self.names, np.atleast_1d(self.start), strict=False)}
 
     def system(self, p) -> LinearSystem:  # pragma: no cover - abstract
-        """Return the candidate's system at parameters ``p`` (a LinearSystem or NonlinearSystem)."""
+        """Return the candidate's system at parameters ``p`` (a LinearSystem or NonlinearSystem).
+
+        Parameters
+        ----------
+        p : array_like
+            Parameter values, shape (n_params,), in the order of ``names``.
+
+        Returns
+        -------
+        LinearSystem or NonlinearSystem
+            The candidate's system at ``p``.
+
+        Raises
+        ------
+        NotImplementedError
+            Always: each subclass defines its system.
+        """
         raise NotImplementedError
 
     @property
@@ -141,13 +211,36 @@ class Hypothesis:
         return not isinstance(self, LocalElementHypothesis)
 
     def carried(self, p) -> tuple:
-        """(catalogue entry, location, values) that put the finding at ``p`` into a model."""
+        """(catalogue entry, location, values) that put the finding at ``p`` into a model.
+
+        Parameters
+        ----------
+        p : array_like
+            Fitted parameter values, shape (n_params,), in the order of ``names``.
+
+        Returns
+        -------
+        tuple
+            ``(physics, location, values)``: the catalogue entry's name, its location and its parameter
+            values (the fitted ones mapped by :meth:`entry_values`, plus ``fixed``).
+        """
         values = self.entry_values({n: float(v) for n, v in zip(self.names, p, strict=True)})
         values.update(self.fixed)
         return self.physics, self.apply_location if self.apply_location is not None else self.location, values
 
     def entry_values(self, values: dict) -> dict:
-        """Return the catalogue entry's parameter values from the fitted ones (default: the same names)."""
+        """Return the catalogue entry's parameter values from the fitted ones (default: the same names).
+
+        Parameters
+        ----------
+        values : dict
+            Fitted parameter values by name.
+
+        Returns
+        -------
+        dict
+            The catalogue entry's parameter values by name.
+        """
         return dict(values)
 
     def linearisation_values(self, values: dict, free) -> dict:
@@ -157,15 +250,51 @@ class Hypothesis:
         member's model is that same affine function on both sides of its linearisation point;
         a member whose entry switches there (a damping time of zero, a support carried as rigid)
         moves the point (``free``: the names the composite fits; held ones stay). Default: ``values``.
+
+        Parameters
+        ----------
+        values : dict
+            The member's parameter values by name (its start in the composite).
+        free : collection of str
+            Names of the member's parameters the composite fits.
+
+        Returns
+        -------
+        dict
+            Parameter values by name at which the composite linearises the member.
         """
         return dict(values)
 
     def fit_values(self, values: dict) -> np.ndarray:
-        """Return the fitted parameter vector from entry values (the inverse of :meth:`entry_values`)."""
+        """Return the fitted parameter vector from entry values (the inverse of :meth:`entry_values`).
+
+        Parameters
+        ----------
+        values : dict
+            Entry values by name (must hold every name in ``names``).
+
+        Returns
+        -------
+        numpy.ndarray
+            Fitted parameter vector, shape (n_params,).
+        """
         return np.array([float(values[n]) for n in self.names])
 
     def gains(self, p, channels) -> np.ndarray | OutputChain | None:
-        """Output gain per channel, or an :class:`OutputChain` of acquisition faults (None: all 1)."""
+        """Output gain per channel, or an :class:`OutputChain` of acquisition faults (None: all 1).
+
+        Parameters
+        ----------
+        p : array_like
+            Parameter values, shape (n_params,).
+        channels : sequence of str
+            Names of the simulated channels, in row order.
+
+        Returns
+        -------
+        numpy.ndarray or OutputChain or None
+            Gain per channel (shape (n_channels,)), a chain of acquisition faults, or None for unit gains.
+        """
         return None
 
     @property
@@ -175,7 +304,15 @@ class Hypothesis:
 
 
 class HeldHypothesis(Hypothesis):
-    """Hypothesis ``h`` with the parameters ``held`` (index -> value) fixed: only the others are fitted."""
+    """Hypothesis ``h`` with the parameters ``held`` (index -> value) fixed: only the others are fitted.
+
+    Parameters
+    ----------
+    h : Hypothesis
+        Hypothesis whose parameters are partly held.
+    held : dict
+        Held parameters: index into ``h.names`` -> fixed value.
+    """
 
     def __init__(self, h: Hypothesis, held: dict):
         keep = np.array([j for j in range(len(h.names)) if j not in held], dtype=int)
@@ -196,7 +333,18 @@ class HeldHypothesis(Hypothesis):
         self.base_gains = getattr(h, "base_gains", None)
 
     def full(self, p) -> np.ndarray:
-        """Return ``h``'s full parameter vector at the free parameters ``p``."""
+        """Return ``h``'s full parameter vector at the free parameters ``p``.
+
+        Parameters
+        ----------
+        p : array_like
+            Values of the free (not held) parameters, shape (n_free,).
+
+        Returns
+        -------
+        numpy.ndarray
+            ``h``'s parameter vector, shape (len(h.names),), with the held values filled in.
+        """
         x = np.asarray(self.h.start, dtype=float).copy()
         x[self.keep] = np.asarray(p, dtype=float)
         for j, v in self.held.items():
@@ -204,11 +352,35 @@ class HeldHypothesis(Hypothesis):
         return x
 
     def system(self, p):
-        """Return ``h``'s system with the held parameters at their values."""
+        """Return ``h``'s system with the held parameters at their values.
+
+        Parameters
+        ----------
+        p : array_like
+            Values of the free parameters, shape (n_free,).
+
+        Returns
+        -------
+        LinearSystem or NonlinearSystem
+            ``h``'s system at the full parameter vector.
+        """
         return self.h.system(self.full(p))
 
     def gains(self, p, channels):
-        """Return ``h``'s output gains with the held parameters at their values."""
+        """Return ``h``'s output gains with the held parameters at their values.
+
+        Parameters
+        ----------
+        p : array_like
+            Values of the free parameters, shape (n_free,).
+        channels : sequence of str
+            Names of the simulated channels, in row order.
+
+        Returns
+        -------
+        numpy.ndarray or OutputChain or None
+            ``h``'s output gains at the full parameter vector.
+        """
         return self.h.gains(self.full(p), channels)
 
 
@@ -225,7 +397,30 @@ def _entry_fields(entry, start: dict):
 
 
 class AffineHypothesis(Hypothesis):
-    """Entry whose parameters enter the unprojected matrices linearly (see module docstring)."""
+    """Entry whose parameters enter the unprojected matrices linearly (see module docstring).
+
+    Parameters
+    ----------
+    physics : str
+        Name of the catalogue entry.
+    location : str or None
+        The entry's location.
+    entry : catalogue entry
+        The catalogue entry (applied to a model with ``entry.apply(model, location, **values)``).
+    build : callable
+        Returns a fresh, unassembled model of the current round (called once per linearisation).
+    start : dict
+        Start value of each fitted parameter by name; the base linearisation is taken there.
+    steps : dict
+        Step of each fitted parameter by name (in its unit) for the derivative of the matrices.
+    **where
+        Further :class:`Hypothesis` fields (``component``, ``sensors``, ``fixed``, ...).
+
+    Raises
+    ------
+    RuntimeError
+        If the model's coordinates change with a parameter step.
+    """
 
     def __init__(self, physics, location, entry, build: Callable, start: dict, steps: dict, **where):
         super().__init__(physics, location, *_entry_fields(entry, start), **where)
@@ -252,7 +447,18 @@ class AffineHypothesis(Hypothesis):
             self.d_k.append((other.full_stiffness - self.base.full_stiffness) / s)
 
     def system(self, p):
-        """Return the candidate's linear system at parameters ``p``."""
+        """Return the candidate's linear system at parameters ``p``.
+
+        Parameters
+        ----------
+        p : array_like
+            Parameter values, shape (n_params,), in the order of ``names``.
+
+        Returns
+        -------
+        LinearSystem
+            The matrices interpolated at ``p`` and projected with the base linearisation's constraints.
+        """
         dp = np.asarray(p, dtype=float) - self.p0
         m, c, k = self.base.full_mass.copy(), self.base.full_damping.copy(), self.base.full_stiffness.copy()
         for i, v in enumerate(dp):
@@ -273,6 +479,27 @@ class SloshingHypothesis(Hypothesis):
     mass, the damper along, the damper across) give ``M``, ``K`` and ``C`` exactly at any
     parameters. The frequency is a fixed value (``fixed``), not fitted: below the analysed band
     only the water's mass and the damper between tank and water show in the response.
+
+    Parameters
+    ----------
+    location : str
+        The tank (the ``sloshing`` entry's location).
+    entry : catalogue entry
+        The ``sloshing`` catalogue entry.
+    build : callable
+        Returns a fresh, unassembled model of the current round (called four times).
+    frequency_hz : float
+        Fixed slosh frequency ``f_s`` (Hz), carried in ``fixed``.
+    start : dict
+        Start value of each fitted parameter by name (``slosh_mass_kg``, ``slosh_damping_ratio``,
+        ``lateral_damping_factor``).
+    **where
+        Further :class:`Hypothesis` fields (``component``, ``sensors``, ``fixed``, ...).
+
+    Raises
+    ------
+    RuntimeError
+        If the model's coordinates change with the parameters.
     """
 
     #: damping ratio at which the unit dampers are taken (numerical differentiation: a realistic damper)
@@ -311,20 +538,71 @@ class SloshingHypothesis(Hypothesis):
 
         They are taken without the slosh dampers, with the one along the tank and with both (at
         :attr:`UNIT_ZETA`, lateral factor 0 and 1, slosh mass ``mass``).
+
+        Parameters
+        ----------
+        c_none : numpy.ndarray
+            Full damping matrix without the slosh dampers, shape (n_q, n_q).
+        c_along : numpy.ndarray
+            Full damping matrix with the damper along the tank (lateral factor 0), shape (n_q, n_q).
+        c_both : numpy.ndarray
+            Full damping matrix with both dampers (lateral factor 1), shape (n_q, n_q).
+        mass : float
+            Slosh mass (kg) at which the three matrices are taken.
+
+        Returns
+        -------
+        tuple of numpy.ndarray
+            ``(U_x, U_y)``: the damping matrices per N s/m of the damper along and across the tank.
         """
         c1 = self.damper_n_s_per_m({"slosh_damping_ratio": self.UNIT_ZETA, "slosh_mass_kg": mass})
         return (c_along - c_none) / c1, (c_both - c_along) / c1
 
     def damper_n_s_per_m(self, values: dict) -> float:
-        """Return the slosh damper along the tank, ``2 zeta m 2 pi f_s`` (N s/m), at entry ``values``."""
+        """Return the slosh damper along the tank, ``2 zeta m 2 pi f_s`` (N s/m), at entry ``values``.
+
+        Parameters
+        ----------
+        values : dict
+            Entry values with ``slosh_damping_ratio`` and ``slosh_mass_kg`` (kg).
+
+        Returns
+        -------
+        float
+            The damper along the tank (N s/m).
+        """
         return 2.0 * float(values["slosh_damping_ratio"]) * float(values["slosh_mass_kg"]) * self.omega
 
     def damping_matrix(self, values: dict, unit_x, unit_y):
-        """Return the slosh dampers' full damping matrix at entry ``values``: ``c (U_x + factor U_y)``."""
+        """Return the slosh dampers' full damping matrix at entry ``values``: ``c (U_x + factor U_y)``.
+
+        Parameters
+        ----------
+        values : dict
+            Entry values with ``slosh_damping_ratio``, ``slosh_mass_kg`` (kg) and ``lateral_damping_factor``.
+        unit_x, unit_y : numpy.ndarray
+            Unit dampers along and across the tank, shape (n_q, n_q) (see :meth:`unit_dampers`).
+
+        Returns
+        -------
+        numpy.ndarray
+            Full damping matrix of the slosh dampers (N s/m), shape (n_q, n_q).
+        """
         return self.damper_n_s_per_m(values) * (unit_x + float(values["lateral_damping_factor"]) * unit_y)
 
     def system(self, p):
-        """Return the constrained system at ``p`` (mass kg, damping ratio, lateral damping factor)."""
+        """Return the constrained system at ``p`` (mass kg, damping ratio, lateral damping factor).
+
+        Parameters
+        ----------
+        p : array_like
+            Parameter values in the order of ``names``.
+
+        Returns
+        -------
+        LinearSystem
+            The constrained system with the slosh body at ``p``.
+        """
         values = dict(zip(self.names, np.asarray(p, dtype=float), strict=True))
         dm = values["slosh_mass_kg"] - self.m0
         m = self.base.full_mass + dm * self.d_m
@@ -334,7 +612,23 @@ class SloshingHypothesis(Hypothesis):
 
 
 class AddedMassHypothesis(Hypothesis):
-    """A rigid point mass at a marker: ``M0 + m P^T P``."""
+    """A rigid point mass at a marker: ``M0 + m P^T P``.
+
+    Parameters
+    ----------
+    location : str
+        Marker the mass is attached to.
+    nominal : LinearSystem
+        Current model's linearisation.
+    displacement_map : numpy.ndarray
+        Marker's displacement map ``P`` onto the full coordinates, shape (3, n_q).
+    bounds : tuple of float, optional
+        Lower and upper bound of the mass (kg); default (0.01, 500).
+    start : float, optional
+        Start mass (kg); default 1.
+    **where
+        Further :class:`Hypothesis` fields (``component``, ``sensors``, ...).
+    """
 
     def __init__(
         self,
@@ -359,7 +653,18 @@ class AddedMassHypothesis(Hypothesis):
         self.ptp = displacement_map.T @ displacement_map
 
     def system(self, p):
-        """Return the candidate's linear system at parameters ``p``."""
+        """Return the candidate's linear system at parameters ``p``.
+
+        Parameters
+        ----------
+        p : array_like
+            ``(mass_kg,)``: the added mass (kg).
+
+        Returns
+        -------
+        LinearSystem
+            The nominal system with the point mass added.
+        """
         return project(
             self.nominal.full_mass + float(p[0]) * self.ptp,
             self.nominal.full_damping,
@@ -375,6 +680,20 @@ class PointResonatorHypothesis(Hypothesis):
     ``K = K0 + k [P^T P, -P^T; -P, I]`` (``C`` alike), ``P`` the point's displacement map; the null
     space gets an identity block (the resonator is free) and the drive shape ``s = P r`` (statically
     the mass follows the point). Parameters are the ``tuned_mass_damper`` entry's.
+
+    Parameters
+    ----------
+    location : str
+        Point (marker) the resonator is attached to.
+    nominal : LinearSystem
+        Current model's linearisation.
+    displacement_map : numpy.ndarray
+        Point's displacement map ``P`` onto the full coordinates, shape (3, n_q).
+    start : dict
+        Start values by name of the ``tuned_mass_damper`` entry's parameters (mass kg, frequency Hz,
+        damping ratio).
+    **where
+        Further :class:`Hypothesis` fields (``component``, ``sensors``, ...).
     """
 
     def __init__(self, location, nominal: LinearSystem, displacement_map: np.ndarray, start: dict, **where):
@@ -409,7 +728,18 @@ class PointResonatorHypothesis(Hypothesis):
         )
 
     def system(self, p):
-        """Return the system with the resonator at ``p`` = (mass_kg, frequency_hz, damping_ratio)."""
+        """Return the system with the resonator at ``p`` = (mass_kg, frequency_hz, damping_ratio).
+
+        Parameters
+        ----------
+        p : array_like
+            ``(mass_kg, frequency_hz, damping_ratio)`` of the resonator (kg, Hz, 1).
+
+        Returns
+        -------
+        LinearSystem
+            The nominal system extended by the resonator's three coordinates.
+        """
         m, f, zeta = (float(v) for v in p)
         omega = 2.0 * np.pi * f
         b = self.base
@@ -426,6 +756,20 @@ class GroundElementHypothesis(Hypothesis):
 
     The diagnosis's generic local element (physics ``'local_element'``), carried into the model as
     the ``ground_spring_damper`` entry.
+
+    Parameters
+    ----------
+    location : str
+        Point (marker) the element acts at.
+    nominal : LinearSystem
+        Current model's linearisation.
+    displacement_map : numpy.ndarray
+        Point's displacement map ``P`` onto the full coordinates, shape (3, n_q).
+    start : dict
+        Start values by name of the ``ground_spring_damper`` entry's parameters (stiffness N/m,
+        damping N s/m).
+    **where
+        Further :class:`Hypothesis` fields (``component``, ``sensors``, ...).
     """
 
     def __init__(self, location, nominal: LinearSystem, displacement_map: np.ndarray, start: dict, **where):
@@ -443,12 +787,34 @@ class GroundElementHypothesis(Hypothesis):
         self.ptp = p_map.T @ p_map
 
     def carried(self, p) -> tuple:
-        """Return the ``ground_spring_damper`` entry at this place with the fitted values."""
+        """Return the ``ground_spring_damper`` entry at this place with the fitted values.
+
+        Parameters
+        ----------
+        p : array_like
+            Fitted ``(stiffness_n_per_m, damping_n_s_per_m)``.
+
+        Returns
+        -------
+        tuple
+            ``('ground_spring_damper', location, values)``.
+        """
         values = {n: float(v) for n, v in zip(self.names, p, strict=True)}
         return "ground_spring_damper", self.apply_location or self.location, values
 
     def system(self, p):
-        """Return the nominal system with the spring-damper to ground at ``p`` = (k, c)."""
+        """Return the nominal system with the spring-damper to ground at ``p`` = (k, c).
+
+        Parameters
+        ----------
+        p : array_like
+            ``(k, c)``: stiffness (N/m) and damping (N s/m) to ground.
+
+        Returns
+        -------
+        LinearSystem
+            The nominal system with the spring-damper to ground.
+        """
         k, c = (float(v) for v in p)
         return project(
             self.nominal.full_mass,
@@ -459,7 +825,21 @@ class GroundElementHypothesis(Hypothesis):
 
 
 class ModalDampingHypothesis(Hypothesis):
-    """The damping of one flexible body's modes scaled by ``factor``."""
+    """The damping of one flexible body's modes scaled by ``factor``.
+
+    Parameters
+    ----------
+    location : str
+        The flexible body whose damping is scaled.
+    nominal : LinearSystem
+        Current model's linearisation.
+    body_indices : numpy.ndarray
+        Indices of the body's coordinates in the full coordinates, shape (n_body,).
+    bounds : tuple of float, optional
+        Lower and upper bound of the factor; default (0.1, 10).
+    **where
+        Further :class:`Hypothesis` fields (``component``, ``sensors``, ...).
+    """
 
     def __init__(
         self, location, nominal: LinearSystem, body_indices: np.ndarray, bounds=(0.1, 10.0), **where
@@ -481,7 +861,18 @@ class ModalDampingHypothesis(Hypothesis):
         self.c_body = c_body
 
     def system(self, p):
-        """Return the candidate's linear system at parameters ``p``."""
+        """Return the candidate's linear system at parameters ``p``.
+
+        Parameters
+        ----------
+        p : array_like
+            ``(factor,)``: the body's damping factor (1: nominal).
+
+        Returns
+        -------
+        LinearSystem
+            The nominal system with the body's damping block scaled.
+        """
         return project(
             self.nominal.full_mass,
             self.nominal.full_damping + (float(p[0]) - 1.0) * self.c_body,
@@ -491,7 +882,19 @@ class ModalDampingHypothesis(Hypothesis):
 
 
 class SensorGainHypothesis(Hypothesis):
-    """One channel's true sensitivity differs from the stated one by ``gain``."""
+    """One channel's true sensitivity differs from the stated one by ``gain``.
+
+    Parameters
+    ----------
+    channel : str
+        The channel whose gain is fitted (the hypothesis's ``location``).
+    nominal : LinearSystem
+        Current model's linearisation (returned unchanged by :meth:`system`).
+    bounds : tuple of float, optional
+        Lower and upper bound of the gain; default (0.5, 2).
+    **where
+        Further :class:`Hypothesis` fields (``component``, ``sensors``, ...).
+    """
 
     def __init__(self, channel, nominal: LinearSystem, bounds=(0.5, 2.0), **where):
         super().__init__(
@@ -507,11 +910,35 @@ class SensorGainHypothesis(Hypothesis):
         self.nominal = nominal
 
     def system(self, p):
-        """Return the nominal system (a gain changes only the recorded channel)."""
+        """Return the nominal system (a gain changes only the recorded channel).
+
+        Parameters
+        ----------
+        p : array_like
+            ``(gain,)`` (unused: the gain does not change the system).
+
+        Returns
+        -------
+        LinearSystem
+            The nominal system.
+        """
         return self.nominal
 
     def gains(self, p, channels):
-        """Return the output gain per channel: ``p[0]`` at the hypothesis's channel, one elsewhere."""
+        """Return the output gain per channel: ``p[0]`` at the hypothesis's channel, one elsewhere.
+
+        Parameters
+        ----------
+        p : array_like
+            ``(gain,)``: the channel's gain.
+        channels : sequence of str
+            Names of the simulated channels, in row order (must contain the hypothesis's channel).
+
+        Returns
+        -------
+        numpy.ndarray
+            Gain per channel, shape (n_channels,).
+        """
         g = np.ones(len(channels))
         g[list(channels).index(self.location)] = float(p[0])
         return g
@@ -523,36 +950,110 @@ class OutputChain:
 
     A stage is an output gain per channel (an array, shape (n_channels,)) or a
     :class:`~exudyn_study.physics.sensor_faults.SensorFault`.
+
+    Parameters
+    ----------
+    stages : tuple, optional
+        Stages applied in order: gain vectors (shape (n_channels,)) or sensor faults (default: none).
     """
 
     stages: tuple = ()
 
     @staticmethod
     def of(g) -> OutputChain:
-        """Return ``g`` (a gain vector, a chain or None) as a chain."""
+        """Return ``g`` (a gain vector, a chain or None) as a chain.
+
+        Parameters
+        ----------
+        g : numpy.ndarray or OutputChain or None
+            A gain per channel, a chain, or None (no stage).
+
+        Returns
+        -------
+        OutputChain
+            ``g`` itself if it is a chain, else a chain of its one stage (or of none).
+        """
         if g is None:
             return OutputChain()
         return g if isinstance(g, OutputChain) else OutputChain((np.asarray(g, dtype=float),))
 
     def then(self, g) -> OutputChain:
-        """Return this chain followed by ``g`` (a gain vector, a chain or None)."""
+        """Return this chain followed by ``g`` (a gain vector, a chain or None).
+
+        Parameters
+        ----------
+        g : numpy.ndarray or OutputChain or None
+            Stages to append: a gain per channel, a chain, or None (none).
+
+        Returns
+        -------
+        OutputChain
+            A new chain with the stages of ``g`` after this chain's.
+        """
         return OutputChain(self.stages + OutputChain.of(g).stages)
 
     def apply(self, y: np.ndarray, channels, rate_hz: float) -> np.ndarray:
-        """Return the channels ``y`` (n_channels, n_samples; rows ``channels``) through the chain."""
+        """Return the channels ``y`` (n_channels, n_samples; rows ``channels``) through the chain.
+
+        Parameters
+        ----------
+        y : numpy.ndarray
+            Simulated channels, shape (n_channels, n_samples).
+        channels : sequence of str
+            Channel name of each row of ``y``.
+        rate_hz : float
+            Sample rate (Hz) of ``y``.
+
+        Returns
+        -------
+        numpy.ndarray
+            The channels as recorded, shape (n_channels, n_samples).
+        """
         for stage in self.stages:
             y = y * stage[:, None] if isinstance(stage, np.ndarray) else stage.apply(y, channels, rate_hz)
         return y
 
     def apply_frf(self, h: np.ndarray, channels, freq_hz) -> np.ndarray:
-        """Return the FRFs ``h`` (n_channels, n_freq) through the chain's linear stages."""
+        """Return the FRFs ``h`` (n_channels, n_freq) through the chain's linear stages.
+
+        Parameters
+        ----------
+        h : numpy.ndarray
+            Simulated FRFs, shape (n_channels, n_freq).
+        channels : sequence of str
+            Channel name of each row of ``h``.
+        freq_hz : numpy.ndarray
+            Frequencies (Hz) of the columns of ``h``, shape (n_freq,).
+
+        Returns
+        -------
+        numpy.ndarray
+            The FRFs as recorded, shape (n_channels, n_freq).
+        """
         for stage in self.stages:
             h = h * stage[:, None] if isinstance(stage, np.ndarray) else stage.apply_frf(h, channels, freq_hz)
         return h
 
 
 def apply_output(y: np.ndarray, gains, channels, rate_hz: float) -> np.ndarray:
-    """Return the simulated channels ``y`` (n_channels, n_samples) with output ``gains`` (vector or chain)."""
+    """Return the simulated channels ``y`` (n_channels, n_samples) with output ``gains`` (vector or chain).
+
+    Parameters
+    ----------
+    y : numpy.ndarray
+        Simulated channels, shape (n_channels, n_samples).
+    gains : numpy.ndarray or OutputChain or None
+        Gain per channel (shape (n_channels,)), a chain of acquisition stages, or None (unchanged).
+    channels : sequence of str
+        Channel name of each row of ``y``.
+    rate_hz : float
+        Sample rate (Hz) of ``y``.
+
+    Returns
+    -------
+    numpy.ndarray
+        The channels as recorded, shape (n_channels, n_samples).
+    """
     if gains is None:
         return y
     if isinstance(gains, OutputChain):
@@ -561,7 +1062,24 @@ def apply_output(y: np.ndarray, gains, channels, rate_hz: float) -> np.ndarray:
 
 
 def apply_output_frf(h: np.ndarray, gains, channels, freq_hz) -> np.ndarray:
-    """Return the FRFs ``h`` (n_channels, n_freq) with output ``gains`` (vector or chain)."""
+    """Return the FRFs ``h`` (n_channels, n_freq) with output ``gains`` (vector or chain).
+
+    Parameters
+    ----------
+    h : numpy.ndarray
+        Simulated FRFs, shape (n_channels, n_freq).
+    gains : numpy.ndarray or OutputChain or None
+        Gain per channel (shape (n_channels,)), a chain of acquisition stages, or None (unchanged).
+    channels : sequence of str
+        Channel name of each row of ``h``.
+    freq_hz : numpy.ndarray
+        Frequencies (Hz) of the columns of ``h``, shape (n_freq,).
+
+    Returns
+    -------
+    numpy.ndarray
+        The FRFs as recorded, shape (n_channels, n_freq).
+    """
     if gains is None:
         return h
     if isinstance(gains, OutputChain):
@@ -574,6 +1092,19 @@ class SensorFaultHypothesis(Hypothesis):
 
     ``location`` is the entry's: a channel, ``'A/B'`` (swap) or ``'A>B'`` (wrong axis). The system
     is ``nominal``; the fault acts on the simulated channels (:meth:`gains`).
+
+    Parameters
+    ----------
+    physics : str
+        Catalogue entry of the fault (``sensor_polarity``, ``sensor_swap``, ...).
+    location : str
+        The entry's location: a channel, ``'A/B'`` (swap) or ``'A>B'`` (wrong axis).
+    nominal : LinearSystem
+        Current model's linearisation (returned unchanged by :meth:`system`).
+    start : dict or None, optional
+        Start values by parameter name (None or missing names: the entry's defaults).
+    **where
+        Further :class:`Hypothesis` fields (``component``, ``sensors``, ...).
     """
 
     def __init__(
@@ -603,11 +1134,35 @@ class SensorFaultHypothesis(Hypothesis):
         self.nominal = nominal
 
     def system(self, p):
-        """Return the nominal system (a fault changes only the recorded channels)."""
+        """Return the nominal system (a fault changes only the recorded channels).
+
+        Parameters
+        ----------
+        p : array_like
+            The fault's parameter values (unused: a fault does not change the system).
+
+        Returns
+        -------
+        LinearSystem
+            The nominal system.
+        """
         return self.nominal
 
     def gains(self, p, channels):
-        """Return the fault at ``p`` as an :class:`OutputChain`."""
+        """Return the fault at ``p`` as an :class:`OutputChain`.
+
+        Parameters
+        ----------
+        p : array_like
+            The fault's parameter values (its first one is the fault's value; none: 1).
+        channels : sequence of str
+            Names of the simulated channels, in row order (unused here: the fault names its channels).
+
+        Returns
+        -------
+        OutputChain
+            A chain of the one sensor fault.
+        """
         from exudyn_study.physics.sensor_faults import SensorFault
 
         value = float(p[0]) if len(self.names) else 1.0
@@ -642,7 +1197,19 @@ def to_x(h: Hypothesis, p):
 
 @dataclass
 class NonlinearSystem:
-    """A linearised system plus local residual force elements (simulated in time, not by FRF)."""
+    """A linearised system plus local residual force elements (simulated in time, not by FRF).
+
+    Parameters
+    ----------
+    lin : LinearSystem
+        Linearisation (the linear tangent) of the model.
+    gather : numpy.ndarray
+        Gather vectors of the local elements onto the full coordinates.
+    laws : list
+        Force law of each local element, in the order of ``gather``.
+    substeps : int, optional
+        Integration substeps per sample of the time simulation (default 4).
+    """
 
     lin: LinearSystem
     gather: np.ndarray
@@ -721,6 +1288,29 @@ class ConnectorHypothesis(Hypothesis):
     and by damping ``B_i`` are taken on the same assembled model (:class:`_Relinearised`):
     ``K0 + sum (p_i - p_i0) dK_i`` and ``C0 + t sum p_i dC_i``, exact (``C`` is bilinear in ``p``
     and ``t``, which a purely affine interpolation is not).
+
+    Parameters
+    ----------
+    physics : str
+        Name of the catalogue entry.
+    location : str
+        The entry's location (a joint, pad or support).
+    entry : catalogue entry
+        The catalogue entry; ``entry.apply`` returns the applied items, among them ``'spring'``.
+    build : callable
+        Returns a fresh, unassembled model of the current round (called once).
+    start : dict
+        Start value of each parameter by name.
+    basis : callable, optional
+        ``basis(model) -> {name: B_i}``: stiffness per unit value of each stiffness parameter (a 6x6
+        matrix or a 3-vector); default :func:`joint_basis`.
+    damping : str, optional
+        Name of the damping-time parameter (s); default ``'damping_time_s'``.
+    fields : tuple or None, optional
+        ``(names, units, lower, upper, start)`` of the fitted parameters when they differ from the
+        entry's (None: the entry's parameters named in ``start``).
+    **where
+        Further :class:`Hypothesis` fields (``component``, ``sensors``, ...).
     """
 
     def __init__(
@@ -770,7 +1360,20 @@ class ConnectorHypothesis(Hypothesis):
     LINEARISATION_DAMPING_TIME_S = 1e-3
 
     def linearisation_values(self, values: dict, free) -> dict:
-        """Return ``values`` with a fitted damping time at :attr:`LINEARISATION_DAMPING_TIME_S`."""
+        """Return ``values`` with a fitted damping time at :attr:`LINEARISATION_DAMPING_TIME_S`.
+
+        Parameters
+        ----------
+        values : dict
+            The member's parameter values by name.
+        free : collection of str
+            Names of the member's parameters the composite fits.
+
+        Returns
+        -------
+        dict
+            ``values`` with the damping time at :attr:`LINEARISATION_DAMPING_TIME_S` (s) if it is free.
+        """
         out = dict(values)
         name = self.names[self.damping_index]
         if name in free:
@@ -778,7 +1381,18 @@ class ConnectorHypothesis(Hypothesis):
         return out
 
     def system(self, p):
-        """Return the constrained system at ``p`` (stiffness parameters and damping time)."""
+        """Return the constrained system at ``p`` (stiffness parameters and damping time).
+
+        Parameters
+        ----------
+        p : array_like
+            Parameter values in the order of ``names`` (stiffnesses and damping time in s).
+
+        Returns
+        -------
+        LinearSystem
+            The constrained system with the connector at ``p``.
+        """
         p = np.asarray(p, dtype=float)
         ks, t = p[self.stiff_index], float(p[self.damping_index])
         k = self.base.full_stiffness.copy()
@@ -798,6 +1412,28 @@ class LocalElementHypothesis(Hypothesis):
     linear tangent that depends on a parameter (``joint_friction``'s stuck spring),
     ``tangent=(item label, Exudyn parameter, value(p))`` names the connector item and its
     parameter as a function of ``p``; the tangent is linear in it (:class:`_Relinearised`).
+
+    Parameters
+    ----------
+    physics : str
+        Name of the catalogue entry (``bushing_stiffening``, ``joint_friction``, ...).
+    location : str
+        The entry's location.
+    entry : catalogue entry
+        The catalogue entry that adds the local nonlinear elements.
+    build : callable
+        Returns a fresh, unassembled model of the current round (called once).
+    start : dict
+        Start value of each fitted parameter by name.
+    make_laws : callable
+        ``make_laws(p, elements)``: the new elements' force laws at parameters ``p``.
+    tangent : tuple or None, optional
+        ``(item label, Exudyn parameter, value(p))`` of a linear tangent that depends on a parameter
+        (None: the tangent is fixed).
+    substeps : int, optional
+        Integration substeps per sample of the time simulation (default 4).
+    **where
+        Further :class:`Hypothesis` fields (``component``, ``sensors``, ``fixed``, ...).
     """
 
     def __init__(
@@ -841,7 +1477,18 @@ class LocalElementHypothesis(Hypothesis):
             )
 
     def system(self, p):
-        """Return the linear tangent system with the element laws at ``p``."""
+        """Return the linear tangent system with the element laws at ``p``.
+
+        Parameters
+        ----------
+        p : array_like
+            Parameter values in the order of ``names``.
+
+        Returns
+        -------
+        NonlinearSystem
+            The linear tangent and the local elements' laws at ``p``.
+        """
         p = np.asarray(p, dtype=float)
         lin = self.lin
         if self.tangent is not None:
@@ -868,6 +1515,20 @@ class CompositeHypothesis(Hypothesis):
     starts except where a member's entry switches (:meth:`Hypothesis.linearisation_values`: a fitted
     damping time of zero, a rear support carried as rigid), so the composite is the same wherever
     it is built.
+
+    Parameters
+    ----------
+    members : iterable of Hypothesis
+        The linear candidates fitted together.
+    build : callable
+        Returns a fresh, unassembled model of the current round (called once per free parameter and more).
+    free : dict or None, optional
+        Member index -> names of its fitted parameters (None or a missing index: all of them).
+
+    Raises
+    ------
+    RuntimeError
+        If the model's coordinates change with a parameter step.
     """
 
     def __init__(self, members, build: Callable, free: dict | None = None):
@@ -966,6 +1627,16 @@ class CompositeHypothesis(Hypothesis):
         Affine in every parameter, except a connector member's damping with a free damping time
         ``t``: ``C = t sum_i k_i D_i`` is bilinear, so its change is taken exactly as
         ``(t - t0) dC/dt + (t / t0) sum_i (k_i - k_i0) dC/dk_i`` (``dC/dk_i = t0 D_i`` at the start).
+
+        Parameters
+        ----------
+        p : array_like
+            Composite parameter values, in the order of ``names``.
+
+        Returns
+        -------
+        LinearSystem
+            The constrained system with every member at its part of ``p``.
         """
         p = np.asarray(p, dtype=float)
         dp = p - self.p0
@@ -986,7 +1657,18 @@ class CompositeHypothesis(Hypothesis):
         return project(m, c, k, self.base)
 
     def member_values(self, p) -> list:
-        """Each member's full parameter vector at composite parameters ``p`` (held ones at their start)."""
+        """Each member's full parameter vector at composite parameters ``p`` (held ones at their start).
+
+        Parameters
+        ----------
+        p : array_like
+            Composite parameter values, in the order of ``names``.
+
+        Returns
+        -------
+        list of numpy.ndarray
+            Each member's parameter vector, in the order of its ``names``.
+        """
         values = [dict(s) for s in self.starts]
         for (i, n), v in zip(self.specs, p, strict=True):
             values[i][n] = float(v)

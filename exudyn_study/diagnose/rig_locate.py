@@ -23,6 +23,19 @@ def level_pair(recs, stronger_in=None) -> tuple | None:
     > 0.9999 over their first ``n`` common samples) and their rms differs by more than
     20 %; ``c`` is the least-squares scale from the weaker to the stronger drive. None
     without such a pair. ``stronger_in``: only pairs whose stronger recording is one of these.
+
+    Parameters
+    ----------
+    recs : sequence of RigRecording
+        The recordings to search.
+    stronger_in : sequence of RigRecording or None, optional
+        Recordings the stronger one must be among (by identity; None: any).
+
+    Returns
+    -------
+    tuple or None
+        ``(c, weaker, stronger, n)``: the drives' scale, the two recordings and the number of common
+        samples compared; None without such a pair.
     """
     best = None
     for a in recs:
@@ -51,6 +64,11 @@ def distortion_shares(recs) -> tuple | None:
     (nonlinear) part and noise: no model is needed. Returns
     ``rms(y_b - c y_a) / rms(y_b)`` per channel (band-limited, 3-60 Hz) of the pair with
     the largest level ratio, or None without such a pair (:func:`level_pair`).
+
+    Parameters
+    ----------
+    recs : sequence of RigRecording
+        The recordings to search for one drive at two levels.
     """
     pair = level_pair(recs)
     if pair is None:
@@ -62,7 +80,22 @@ def distortion_shares(recs) -> tuple | None:
 
 
 def nonlinear_sensors(distortion, channels, located) -> list:
-    """Located sensors with a local nonlinear share (:func:`distortion_shares`), strongest first."""
+    """Located sensors with a local nonlinear share (:func:`distortion_shares`), strongest first.
+
+    Parameters
+    ----------
+    distortion : tuple or None
+        ``(share, stronger recording)`` of :func:`distortion_shares` (None: no pair, no sensor).
+    channels : sequence of str
+        The recordings' response channels (unused; the stronger recording names the rows of ``share``).
+    located : sequence of str
+        The located sensors.
+
+    Returns
+    -------
+    list of str
+        The located sensors whose share exceeds twice the median share and 0.5 %, strongest first.
+    """
     if distortion is None:
         return []
     share, strong = distortion
@@ -91,6 +124,22 @@ def is_level_dependent(recs, sims, rows, distortion=None) -> bool:
     the current model's error there makes the mismatch level dependent: once linear findings
     have explained most of the error at a nonlinear element, what is left there grows with
     the level, even if other channels' linear error hides it in the median ratio.
+
+    Parameters
+    ----------
+    recs : sequence of RigRecording
+        The recordings (training, then held out).
+    sims : sequence of numpy.ndarray
+        The current model's simulation per recording, shape (n_channels, n_samples).
+    rows : array_like of int
+        Indices of the channels with significant mismatch.
+    distortion : tuple or None, optional
+        ``(share, stronger recording)`` of :func:`distortion_shares` (None: not used).
+
+    Returns
+    -------
+    bool
+        Whether the mismatch is level dependent.
     """
     if len(rows) == 0 or len(recs) < 2:
         return False

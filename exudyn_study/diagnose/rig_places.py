@@ -60,6 +60,20 @@ def structure_places(model, spacing_m: float = PLACE_SPACING_M, skip=("rear_foun
     The model is assembled. Per cube the node nearest the centroid of the body's nodes in it; bodies
     in ``skip`` are left out (the rig's foundation is not the specimen). A sensor's place is named by
     the sensor (one per point: the first sensor there).
+
+    Parameters
+    ----------
+    model : Model
+        The assembled model (its sensors and flexible bodies).
+    spacing_m : float, optional
+        Edge length (m) of the cubes one mesh node is taken per (default :data:`PLACE_SPACING_M`).
+    skip : tuple of str, optional
+        Bodies left out (default: the rig's foundation, ``'rear_foundation'``).
+
+    Returns
+    -------
+    Places
+        Names (sensor or ``'body#node'``), positions (m), bodies and displacement maps (3, n_q) of the places.
     """
     from exudyn_study.model.linearisation import body_displacement_map
 
@@ -134,7 +148,18 @@ class LocalSensitivity:
         self.h0 = frf_linear(lin, self.f)[list(rows), 0, :]
 
     def at(self, place_map: np.ndarray) -> tuple:
-        """Return what a place contributes independently of the element: ``(U^T D^-1 U, S N^T D^-1 U, c)``."""
+        """Return what a place contributes independently of the element: ``(U^T D^-1 U, S N^T D^-1 U, c)``.
+
+        Parameters
+        ----------
+        place_map : numpy.ndarray
+            The place's displacement map onto the full coordinates, shape (3, n_q).
+
+        Returns
+        -------
+        tuple of numpy.ndarray
+            ``(U^T D^-1 U, S N^T D^-1 U, c)``: shapes (n_f, 3, 3), (n_f, n_s, 3) and (n_f, 3).
+        """
         u = self.null @ place_map.T  # (n, 3)
         ul, ru = u.T @ self.left, self.right @ u  # (3, 2n), (2n, 3)
         n_f, n_s = self.pole.shape[1], self.sensor_left.shape[0]
@@ -151,6 +176,14 @@ class LocalSensitivity:
 
         ``place``: the place's displacement map (3, n_q) or what :meth:`at` returned for it; ``mu``
         shape (n_f,), or (n_elements, n_f) for several elements at once (then (n_elements, n_s, n_f)).
+
+        Parameters
+        ----------
+        place : numpy.ndarray or tuple
+            The place's displacement map, shape (3, n_q), or what :meth:`at` returned for it.
+        mu : numpy.ndarray
+            The element's ``mu(omega)`` (N/m, complex; :func:`element_mu`), shape (n_f,), or
+            (n_elements, n_f) for several elements at once.
         """
         a_mat, b_mat, c_vec = self.at(place) if isinstance(place, np.ndarray) else place
         mu = np.asarray(mu)

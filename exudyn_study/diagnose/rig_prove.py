@@ -21,7 +21,23 @@ from exudyn_study.diagnose.rig_state import Comparison, ModelState, Proof, RigPr
 
 
 def relative_damage(recs, before, after):
-    """Relative pseudo damage (Basquin beta 5) at the z sensors, before and after, per held-out recording."""
+    """Relative pseudo damage (Basquin beta 5) at the z sensors, before and after, per held-out recording.
+
+    Parameters
+    ----------
+    recs : sequence of RigRecording
+        The held-out recordings.
+    before : sequence of numpy.ndarray
+        Simulation per recording before the findings, shape (n_channels, n_samples).
+    after : sequence of numpy.ndarray
+        Simulation per recording after the findings, shape (n_channels, n_samples).
+
+    Returns
+    -------
+    dict
+        z channel -> ``{'before': d, 'after': d}``: the simulated pseudo damage over the measured one,
+        mean over the recordings (1: as measured).
+    """
     from exudyn_study.signals.fatigue import pseudo_damage
 
     out = {}
@@ -56,6 +72,21 @@ def prove(
     level-dependent share: it is proven on that share at a held-out level of the same drive (it
     must explain ``min_improvement`` of it there) and may raise the held-out error by
     ``nonlinear_holdout_tolerance`` at most.
+
+    Parameters
+    ----------
+    problem : RigProblem
+        The recordings, evaluators and settings.
+    before : ModelState
+        The model before the round's findings.
+    comparison : Comparison
+        ``before`` against the recordings.
+    after : ModelState
+        The model with the round's findings.
+    comparison_after : Comparison
+        ``after`` against the recordings.
+    batch : list of dict
+        Fit records of the round's findings (``h``, ``on_distortion``, ...).
 
     Returns
     -------

@@ -21,7 +21,25 @@ from exudyn_study.errors import InputError
 
 
 def hypotheses_of(cand, ctx) -> list:
-    """Return the hypotheses of registered candidate ``cand`` in the round ``ctx`` (checked)."""
+    """Return the hypotheses of registered candidate ``cand`` in the round ``ctx`` (checked).
+
+    Parameters
+    ----------
+    cand : RigCandidate
+        The registered candidate (its ``factory``).
+    ctx : CandidateContext
+        What the factory may use in this round.
+
+    Returns
+    -------
+    list of Hypothesis
+        The candidate's hypotheses (empty if it does not apply).
+
+    Raises
+    ------
+    InputError
+        If the factory returns something other than :class:`Hypothesis` objects.
+    """
     made = list(cand.factory(ctx) or [])
     for h in made:
         if not isinstance(h, Hypothesis):
@@ -42,6 +60,24 @@ def screen_score(h: Hypothesis, ev: Evaluator, channels, r0: np.ndarray, nfev: i
     resonator's residual has a local minimum per mode it can tune to). Otherwise a short
     least-squares fit (``nfev`` evaluations) on the screening recording scores it. The best
     value becomes the start of the full fit.
+
+    Parameters
+    ----------
+    h : Hypothesis
+        The candidate; its ``start`` is set to the best screening value.
+    ev : Evaluator or SpectralEvaluator or DistortionEvaluator
+        Evaluator of the screening record.
+    channels : sequence of str
+        The simulated channels, in row order.
+    r0 : numpy.ndarray
+        The current model's residual vector on ``ev``, shape (n_rows,).
+    nfev : int, optional
+        Residual evaluations of a short screening fit (default 6).
+
+    Returns
+    -------
+    float
+        ``1 - rss / rss0`` at the best value, at least 0 (0 when the residual is already zero).
     """
     rss0 = float(r0 @ r0)
     if rss0 <= 0:
@@ -85,7 +121,26 @@ def screen_score(h: Hypothesis, ev: Evaluator, channels, r0: np.ndarray, nfev: i
 def candidate_context(
     problem: RigProblem, state: ModelState, location: Location, done, comparison: Comparison | None = None
 ) -> CandidateContext:
-    """Return what the candidate factories may use in this round (:class:`CandidateContext`)."""
+    """Return what the candidate factories may use in this round (:class:`CandidateContext`).
+
+    Parameters
+    ----------
+    problem : RigProblem
+        The recordings, evaluators and settings.
+    state : ModelState
+        The current model.
+    location : Location
+        Where the mismatch is.
+    done : iterable of tuple
+        ``(physics, location)`` of the findings made (not offered again).
+    comparison : Comparison or None, optional
+        The current model against the recordings (None: no residual share per channel).
+
+    Returns
+    -------
+    CandidateContext
+        The context of this round.
+    """
     best_places = []
     if problem.settings.place_screen:
         import time
@@ -119,14 +174,38 @@ def candidate_context(
 
 
 def residual_shares(problem: RigProblem, comparison: Comparison) -> dict:
-    """Return channel -> its share of the training residual (squared relative errors, over recordings)."""
+    """Return channel -> its share of the training residual (squared relative errors, over recordings).
+
+    Parameters
+    ----------
+    problem : RigProblem
+        The recordings and evaluators.
+    comparison : Comparison
+        The current model against the recordings (its training simulations).
+
+    Returns
+    -------
+    dict
+        Channel -> share of the residual, summing to 1 (all 0 if there is no residual).
+    """
     errs = np.mean([e**2 for e in problem.ev_train.errors(comparison.sims_tr)], axis=0)
     total = float(np.sum(errs))
     return {c: float(v) / total if total > 0 else 0.0 for c, v in zip(problem.channels, errs, strict=True)}
 
 
 def measured_peaks(problem: RigProblem) -> dict:
-    """Return channel -> largest magnitude over the training recordings (m/s^2)."""
+    """Return channel -> largest magnitude over the training recordings (m/s^2).
+
+    Parameters
+    ----------
+    problem : RigProblem
+        The training recordings and their channels.
+
+    Returns
+    -------
+    dict
+        Channel -> peak acceleration (m/s^2).
+    """
     peaks = np.max([np.max(np.abs(r.measured), axis=1) for r in problem.train_recs], axis=0)
     return {c: float(v) for c, v in zip(problem.channels, peaks, strict=True)}
 
@@ -140,6 +219,21 @@ def screen(
     data hold one drive at two levels (``problem.ev_distortion``); a candidate that needs level
     dependence is asked only when the mismatch has it. Far off (training error above
     ``spectral_above_error``) only linear candidates are screened, on log transmissibilities.
+
+    Parameters
+    ----------
+    problem : RigProblem
+        The recordings, evaluators and settings.
+    state : ModelState
+        The current model.
+    comparison : Comparison
+        The current model against the recordings.
+    location : Location
+        Where the mismatch is.
+    done : iterable of tuple
+        ``(physics, location)`` of the findings made (not offered again).
+    round_no : int
+        Index of the round (0 for the first).
 
     Returns
     -------

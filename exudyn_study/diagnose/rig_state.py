@@ -108,14 +108,38 @@ class RigProblem:
         return (self.ev_train, self.ev_train_nonlinear, self.ev_hold, self.ev_screen, self.ev_hold_fast)
 
     def wants(self, physics: str) -> bool:
-        """Whether catalogue entry ``physics`` is to be considered."""
+        """Whether catalogue entry ``physics`` is to be considered.
+
+        Parameters
+        ----------
+        physics : str
+            Name of the catalogue entry.
+
+        Returns
+        -------
+        bool
+            True if the entry is in the catalogue and wanted (or nothing is singled out).
+        """
         from exudyn_study.physics.catalogue import CATALOGUE
 
         return (self.wanted is None or physics in self.wanted) and physics in CATALOGUE
 
 
 def build_with_findings(build: Callable, accepted: tuple):
-    """Return ``build()`` with the catalogue entries ``accepted`` ((name, location, values), ...) applied."""
+    """Return ``build()`` with the catalogue entries ``accepted`` ((name, location, values), ...) applied.
+
+    Parameters
+    ----------
+    build : callable
+        ``build() -> Model``: a fresh nominal model (not assembled).
+    accepted : tuple of tuple
+        Catalogue entries to apply, in order: ``(entry name, location, parameter values)``.
+
+    Returns
+    -------
+    Model
+        The model with the entries applied (not assembled).
+    """
     from exudyn_study.physics.catalogue import entry
 
     model = build()
@@ -158,12 +182,38 @@ class ModelState:
         return getattr(self.system, "lin", self.system)
 
     def builder(self, problem: RigProblem) -> Callable:
-        """``build() -> Model``: a fresh, not assembled copy of this model."""
+        """``build() -> Model``: a fresh, not assembled copy of this model.
+
+        Parameters
+        ----------
+        problem : RigProblem
+            The diagnosis (its nominal ``build``).
+
+        Returns
+        -------
+        callable
+            ``build() -> Model`` with this state's findings applied.
+        """
         return functools.partial(build_with_findings, problem.build, tuple(self.accepted))
 
 
 def assembled_state(build: Callable, accepted: tuple, gains: np.ndarray) -> ModelState:
-    """Build ``build()`` with the findings ``accepted``, assemble it and linearise it."""
+    """Build ``build()`` with the findings ``accepted``, assemble it and linearise it.
+
+    Parameters
+    ----------
+    build : callable
+        ``build() -> Model``: a fresh nominal model (not assembled).
+    accepted : tuple of tuple
+        Catalogue entries to apply, in order: ``(entry name, location, parameter values)``.
+    gains : numpy.ndarray or OutputChain or None
+        Output gain per channel, or the chain of acquisition faults found (None: all one).
+
+    Returns
+    -------
+    ModelState
+        The assembled model, its point locations and markers, and its system.
+    """
     from exudyn_study.diagnose.rig_hypotheses import model_system
     from exudyn_study.physics.entries import location_point
 
@@ -177,7 +227,22 @@ def assembled_state(build: Callable, accepted: tuple, gains: np.ndarray) -> Mode
 
 
 def model_state(problem: RigProblem, accepted: tuple, gains: np.ndarray) -> ModelState:
-    """Return the model with the findings ``accepted``; the evaluators get its nonlinear correction."""
+    """Return the model with the findings ``accepted``; the evaluators get its nonlinear correction.
+
+    Parameters
+    ----------
+    problem : RigProblem
+        The diagnosis (its nominal ``build`` and its evaluators).
+    accepted : tuple of tuple
+        Catalogue entries to apply, in order: ``(entry name, location, parameter values)``.
+    gains : numpy.ndarray or OutputChain or None
+        Output gain per channel, or the chain of acquisition faults found (None: all one).
+
+    Returns
+    -------
+    ModelState
+        The current model.
+    """
     from exudyn_study.diagnose.rig_evaluate import set_offsets
 
     state = assembled_state(problem.build, accepted, gains)
@@ -191,6 +256,20 @@ def carry(problem: RigProblem, before: ModelState, members) -> ModelState:
     A sensor finding (``carry == 'gains'``) changes the output gains (its gains include those
     before it); any other is applied as a catalogue entry and the model rebuilt. Without new
     entries the system of ``before`` is kept.
+
+    Parameters
+    ----------
+    problem : RigProblem
+        The diagnosis (builder, channels, evaluators).
+    before : ModelState
+        The model before the fits.
+    members : iterable of dict
+        Fit records (``h``: the hypothesis, ``p``: its values) to carry.
+
+    Returns
+    -------
+    ModelState
+        The model with the fits carried into it.
     """
     from dataclasses import replace
 
@@ -273,6 +352,11 @@ class Screening:
         An acquisition fault (``carry == 'gains'``) changes only the recorded channels, not where
         the resonances are, and a polarity or a delay is invisible in log magnitudes: it is judged
         on the time histories even in a spectral round.
+
+        Parameters
+        ----------
+        h : Hypothesis
+            The hypothesis (its ``carry``).
         """
         if self.spectral and h.carry == "gains":
             return self.ev_time, self.rss0_time, False
@@ -341,7 +425,18 @@ class Progress:
     refitted: tuple | None = None
 
     def done(self, state: ModelState) -> set:
-        """(physics, location) of the findings made: not offered again."""
+        """(physics, location) of the findings made: not offered again.
+
+        Parameters
+        ----------
+        state : ModelState
+            The current model (its carried catalogue entries).
+
+        Returns
+        -------
+        set of tuple
+            ``(physics, location)`` pairs; a sensor finding under each way its location is written.
+        """
         done = {(name, loc) for name, loc, _ in state.accepted}
         for f in self.findings:
             if f.physics.startswith("sensor_"):  # carried as output gains: named by their channels

@@ -211,7 +211,24 @@ class Finding:
 
     @classmethod
     def from_dict(cls, d: Mapping) -> Finding:
-        """Build from a dict of the module schema (InputError naming a missing key)."""
+        """Build from a dict of the module schema (InputError naming a missing key).
+
+        Parameters
+        ----------
+        d : mapping
+            A finding of the module schema (``physics``, ``location``, ``band_hz``, ``level_dependent``,
+            ``explanation``, ``parameters``, ``fit``; ``flags`` optional).
+
+        Returns
+        -------
+        Finding
+            The finding.
+
+        Raises
+        ------
+        InputError
+            If ``d`` is not a mapping, lacks a key or holds a value of the wrong type.
+        """
         if not isinstance(d, Mapping):
             raise InputError(f"finding {d!r}: expected an object")
         keys = ("physics", "location", "band_hz", "level_dependent", "explanation", "parameters", "fit")
@@ -302,7 +319,24 @@ class Diagnosis:
 
     @classmethod
     def from_dict(cls, d: Mapping) -> Diagnosis:
-        """Build from a dict of the module schema (a different format or newer version: InputError)."""
+        """Build from a dict of the module schema (a different format or newer version: InputError).
+
+        Parameters
+        ----------
+        d : mapping
+            A diagnosis of the module schema (``mismatch_found``, ``findings``, ``unexplained``, optional
+            ``metadata``, ``format`` and ``format_version``).
+
+        Returns
+        -------
+        Diagnosis
+            The diagnosis.
+
+        Raises
+        ------
+        InputError
+            If ``d`` is not of the schema, of another format or of a newer format version.
+        """
         if not isinstance(d, Mapping) or "mismatch_found" not in d:
             raise InputError(
                 "diagnosis JSON: expected an object with 'mismatch_found', 'findings', 'unexplained'"
@@ -333,10 +367,20 @@ class Diagnosis:
     def write_json(self, path: str | os.PathLike) -> Path:
         """Write atomically (temporary file in the same directory, then ``os.replace``).
 
+        Parameters
+        ----------
+        path : str or os.PathLike
+            The file to write (its directory must exist).
+
         Raises
         ------
         InputError
             If the directory does not exist.
+
+        Returns
+        -------
+        pathlib.Path
+            The path written.
         """
         path = Path(path)
         if not path.parent.is_dir():
@@ -347,7 +391,23 @@ class Diagnosis:
 
 
 def read_json(path: str | os.PathLike) -> Diagnosis:
-    """Read a diagnosis JSON file (InputError if missing or not of the schema)."""
+    """Read a diagnosis JSON file (InputError if missing or not of the schema).
+
+    Parameters
+    ----------
+    path : str or os.PathLike
+        The diagnosis JSON file.
+
+    Returns
+    -------
+    Diagnosis
+        The diagnosis.
+
+    Raises
+    ------
+    InputError
+        If the file does not exist, is not valid JSON or not of the schema.
+    """
     path = Path(path)
     if not path.is_file():
         raise InputError(f"diagnosis JSON {str(path)!r}: no such file")

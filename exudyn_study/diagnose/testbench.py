@@ -143,7 +143,22 @@ class DeadZoneSpring:
         return None
 
     def residual(self, delta, delta_t, state):
-        """Contact force in N (resisting positive ``delta``), no state."""
+        """Contact force in N (resisting positive ``delta``), no state.
+
+        Parameters
+        ----------
+        delta : float
+            Relative displacement across the element (m).
+        delta_t : float
+            Relative velocity across the element (m/s); unused (the law is memoryless).
+        state : None
+            The law's state (none).
+
+        Returns
+        -------
+        tuple
+            ``(force, None)``: the contact force (N) and the unchanged (absent) state.
+        """
         g = self.gap_m
         if delta > g:
             return self.stiffness_n_per_m * (delta - g), None
@@ -278,6 +293,24 @@ def drive_signal(
     """Band-limited random table displacement (m) whose acceleration rms is ``level`` m/s^2.
 
     Flat acceleration spectrum in ``band_hz`` (random phases), a 0.5 s cosine fade-in.
+
+    Parameters
+    ----------
+    level : float
+        Acceleration rms of the table (m/s^2).
+    duration_s : float
+        Duration (s).
+    sample_rate_hz : float
+        Sampling rate (Hz).
+    seed : int
+        Seed of the random phases.
+    band_hz : tuple of float, optional
+        Band (Hz) of the flat acceleration spectrum (default (5, 120)).
+
+    Returns
+    -------
+    numpy.ndarray
+        Table displacement (m), shape (round(duration_s * sample_rate_hz),).
     """
     n = int(round(duration_s * sample_rate_hz))
     rng = np.random.default_rng(seed)
