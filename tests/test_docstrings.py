@@ -30,10 +30,9 @@ import exudyn_study
 SECTIONS = ("Parameters", "Other Parameters", "Attributes")
 
 #: Qualified names (``module.function``, ``module.Class`` or ``module.Class.method``, named where they are
-#: defined) whose undocumented parameters are skipped: they live in code that other changes are editing
-#: (identify, cli, recording, infra, sweep, calibrate, diagnose, physics, linear.pairing,
-#: signals.fatigue*, virtual_rig.scenarios); each is documented by its owning change, after whose merge its
-#: entry is removed here. ``test_pending_names_exist`` fails on an entry that no longer names anything.
+#: defined) whose undocumented parameters are skipped until they are documented; an entry is removed
+#: when its docstring lists every parameter. ``test_pending_names_exist`` fails on an entry that no
+#: longer names anything.
 PENDING: set[str] = {
     # still to document: the subcommands' configure(parser)/run(args) and a few methods of the
     # identification, recording and fatigue types; the set only shrinks
