@@ -122,6 +122,10 @@ class Evaluator:
             if self.offset is not None:
                 base = [b + o for b, o in zip(base, self.offset, strict=True)]
             self._cache = {key: (lin, base)}
+        return self._through_outputs(base, gains)
+
+    def _through_outputs(self, base: list, gains) -> list:
+        """Return the channels ``base`` (per recording) through the output ``gains`` (None: unchanged)."""
         if gains is None:
             return base
         return [apply_output(b, gains, r.channels, RATE_HZ) for b, r in zip(base, self.recs, strict=True)]
@@ -159,9 +163,7 @@ class Evaluator:
             if self.offset is not None:
                 base = [b + o for b, o in zip(base, self.offset, strict=True)]
             self._cache = {key: (lin, base)}
-        if gains is None:
-            return base
-        return [apply_output(b, gains, r.channels, RATE_HZ) for b, r in zip(base, self.recs, strict=True)]
+        return self._through_outputs(base, gains)
 
     def residual_vector(self, lin, gains=None):
         """Band-limited, per-channel scaled residual of all recordings, flattened.
