@@ -15,6 +15,10 @@ import numpy as np
 from exudyn_study.bodies.damping import MAX_RATIO, validate_ratios
 from exudyn_study.errors import InputError
 
+#: calibration layouts: one ratio per body mode below a cut-off (:meth:`DampingDesign.per_mode`),
+#: or one ratio per body for all of its modes (:meth:`DampingDesign.per_body`, thesis Table 6)
+CALIBRATION_DESIGNS = ("per-mode", "per-body")
+
 
 @dataclass(frozen=True)
 class DampingDesign:
@@ -38,8 +42,8 @@ class DampingDesign:
 
     Notes
     -----
-    Use :meth:`per_mode` (Models 1/2) or :meth:`per_body` (Model 3) rather than the
-    constructor.
+    Use :meth:`per_mode` (one variable per body mode) or :meth:`per_body` (one per body, thesis
+    Table 6) rather than the constructor.
     """
 
     body_frequencies_hz: Mapping[str, np.ndarray]
@@ -91,7 +95,7 @@ class DampingDesign:
 
     @classmethod
     def per_mode(cls, bodies, cutoff_hz: float, above=MAX_RATIO) -> DampingDesign:
-        """One variable per body mode below ``cutoff_hz``; a fixed damping above (Models 1/2).
+        """One variable per body mode below ``cutoff_hz``; a fixed damping above.
 
         Parameters
         ----------
@@ -123,7 +127,7 @@ class DampingDesign:
 
     @classmethod
     def per_body(cls, bodies) -> DampingDesign:
-        """One variable per body, applied to all of its modes (Model 3, thesis Table 6).
+        """One variable per body, applied to all of its modes (thesis Table 6 layout).
 
         Parameters
         ----------

@@ -8,8 +8,8 @@ optimiser.
 Method
 ------
 1. **Design** (:class:`DampingDesign`): which flexible-body modal damping ratios are free.
-   Models 1/2: one variable per body mode below a cut-off frequency, a fixed function above
-   (the thesis: 100 %); Model 3: one variable per body. Bounds ``[0, MAX_RATIO]``.
+   one variable per body mode below a cut-off frequency, a fixed function above (the
+   thesis: 100 %); or one variable per body (thesis Table 6 layout). Bounds ``[0, MAX_RATIO]``.
 2. **Linearise once** (:func:`linearise_design`): Exudyn's ``ComputeLinearizedSystem`` projected into
    the constraint null space ``N`` gives ``M``, ``K`` and ``D``. Exudyn's reduced-order FFRF
    body applies its reduced damping matrix to the modal coordinates only, and at zero

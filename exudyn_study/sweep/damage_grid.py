@@ -38,8 +38,8 @@ Damping choices
   (:func:`~exudyn_study.sweep.grid_damping.calibrate_model`) so that its system modes carry the
   damping of the rig's EMA: the white-noise recording identified with each reference
   (:func:`~exudyn_study.sweep.grid_damping.ema_target`), model and rig modes paired by MAC at
-  the sensors and frequency. Models 1/2: one ratio per chassis mode below 500 Hz; Model 3: one
-  per body. A calibration file per model replaces it (``calibrations``).
+  the sensors and frequency; one ratio per body mode below 500 Hz (Model 3: of each of its
+  bodies). A calibration file per model replaces it (``calibrations``).
 - ``'diagnosed'``: the model a rig diagnosis fitted (``diagnosis``: its findings applied,
   :func:`exudyn_study.diagnose.fitted.apply_diagnosis`, but for ``modal_damping`` findings:
   the body damping is calibrated), calibrated the same way; only for the model variant the

@@ -6,10 +6,13 @@ chosen so that the model's system modes carry the damping identified on the rig.
 :func:`calibrate_model` against a target (:func:`ema_target`: the EMA of the white-noise
 recording, frequencies, damping and shapes at the sensors, paired by MAC and frequency; thesis
 Table 1 by frequency alone when no recording is at hand) or from a calibration file
-(:func:`damping_from_calibration`). Models 1/2 get one variable per chassis mode below 500 Hz,
-Model 3 one per body (the thesis's Table 6 layout). ``diagnosed`` is the model a rig diagnosis
-fitted (its findings applied, :func:`exudyn_study.diagnose.fitted.apply_diagnosis`) with its
-body damping calibrated the same way: it shows what modelling the missing physics adds to what
+(:func:`damping_from_calibration`). Every model gets one variable per body mode below 500 Hz
+(Model 3: the modes of each of its bodies). One ratio per body, the thesis's Table 6 layout,
+cannot give two system modes that one body dominates different damping: the fit then drives
+whole bodies to a bound, and the pseudo damage at that body's sensors goes orders of magnitude
+off; ``design='per-body'`` keeps that layout. ``diagnosed`` is the model a rig diagnosis
+fitted (its findings applied, :func:`exudyn_study.diagnose.fitted.apply_diagnosis`) with its body
+damping calibrated the same way: it shows what modelling the missing physics adds to what
 calibration alone can do.
 """
 
@@ -221,7 +224,8 @@ def ema_target(recording, references=None, *, band_hz=(3.0, 50.0), resolution_hz
 
 
 def calibrate_model(model, target, cutoff_hz: float = _SUGGESTED_CUTOFF_HZ, hold=None,
-                    bounds=CALIBRATION_BOUNDS, max_frequency_error: float = CALIBRATION_MAX_FREQUENCY_ERROR):
+                    bounds=CALIBRATION_BOUNDS, max_frequency_error: float = CALIBRATION_MAX_FREQUENCY_ERROR,
+                    design: str = "per-mode"):
     """Calibrate a rig model's flexible-body damping so that its system modes carry the target's.
 
     Parameters
@@ -233,8 +237,7 @@ def calibrate_model(model, target, cutoff_hz: float = _SUGGESTED_CUTOFF_HZ, hold
         Target modes; with shapes, pairs need MAC >= 0.5 at the common sensors
         (:func:`exudyn_study.linear.pairing.pair_modes`).
     cutoff_hz : float
-        Models 1/2: one variable per chassis mode below it, 100 % above. Model 3: one
-        variable per body (all its modes), as thesis Table 6.
+        With ``design='per-mode'``: one variable per body mode below it, 100 % above.
     hold : sequence of str, optional
         Sensors held in the model's modes. Default: the target's first EMA reference
         (``metadata['references']``, else ``ARFVZ``): an EMA on transmissibilities sees the
@@ -245,6 +248,9 @@ def calibrate_model(model, target, cutoff_hz: float = _SUGGESTED_CUTOFF_HZ, hold
     max_frequency_error : float
         Largest relative frequency difference of a pair (default
         :data:`CALIBRATION_MAX_FREQUENCY_ERROR`); pairs also need MAC >= 0.5.
+    design : {'per-mode', 'per-body'}
+        One variable per body mode below ``cutoff_hz`` (default, every model), or one per body
+        for all of its modes (thesis Table 6 layout).
 
     Returns
     -------
@@ -254,16 +260,18 @@ def calibrate_model(model, target, cutoff_hz: float = _SUGGESTED_CUTOFF_HZ, hold
     Raises
     ------
     InputError
-        No target mode pairs with a model mode.
+        No target mode pairs with a model mode; an unknown ``design``.
     """
-    from exudyn_study.calibrate.design import DampingDesign
+    from exudyn_study.calibrate.design import CALIBRATION_DESIGNS, DampingDesign
     from exudyn_study.calibrate.optimise import calibrate
     from exudyn_study.calibrate.system import system_from_model
 
     if not model.assembled:
         model.assemble()
     bodies = {n: h for n, h in model.bodies.items() if n != "rear_foundation"}
-    design = (DampingDesign.per_body(bodies) if model.variant == 3
+    if design not in CALIBRATION_DESIGNS:
+        raise InputError(f"design={design!r}: expected one of {list(CALIBRATION_DESIGNS)}")
+    design = (DampingDesign.per_body(bodies) if design == "per-body"
               else DampingDesign.per_mode(bodies, cutoff_hz))
     design = dataclasses.replace(design, lower=float(bounds[0]), upper=float(bounds[1]))
     if hold is None:
