@@ -23,7 +23,10 @@ import numpy as np
 from exudyn_study.errors import InputError
 from exudyn_study.recording.types import Channel, Recording
 
-__all__ = ["Twin", "simulate_twin", "truth_modes"]
+__all__ = ["Twin", "simulate_twin", "truth_modes", "SUBSTEPS"]
+
+#: sub-steps per sample of the twin's time simulation (the slider's force is held over each)
+SUBSTEPS = 4
 
 
 @dataclass(frozen=True)
@@ -181,7 +184,9 @@ def simulate_twin(
         u = level * np.concatenate([g * base for g in gains])
         drive = Drive()
         drive.set_signal(u, fs)
-        acc, delta = simulate_local_nonlinear(lin, drive, gather, [law], substeps=4, return_deltas=True)
+        acc, delta = simulate_local_nonlinear(
+            lin, drive, gather, [law], substeps=SUBSTEPS, return_deltas=True
+        )
         acc = acc + tw.noise * np.std(acc, axis=1, keepdims=True) * rng.standard_normal(acc.shape)
         u_meas = u + tw.noise * np.std(u) * rng.standard_normal(u.size)
         chans = [
@@ -199,14 +204,24 @@ def simulate_twin(
     return (recs, truths) if return_truth else recs
 
 
-def truth_modes(tw: Twin, delta: np.ndarray, law, period: int) -> tuple[np.ndarray, np.ndarray]:
+def truth_modes(
+    tw: Twin, delta: np.ndarray, law, period: int, substeps: int = SUBSTEPS
+) -> tuple[np.ndarray, np.ndarray]:
     """Return the true (frequency in Hz, damping ratio) per mode at one level.
 
-    The slider force is replayed on the simulated joint motion ``delta`` (whole periods after
-    the first); per mode the ratio of the force's and the motion's spectra over the excited
-    lines within +-3 half-power bandwidths of the mode (the window follows the mode as it moves)
-    gives the element's equivalent complex stiffness at that mode, which replaces the element in the
-    linear structure's eigenproblem.
+    The true modal parameters of a level are those of its best linear approximation: the
+    linear structure with the joint element replaced by its equivalent complex stiffness
+    ``k_eq(f) = F_slider(f) / delta(f)`` at the mode (Pintelon & Schoukens 2012, Section 3.4).
+    The slider is replayed on the simulated joint motion ``delta`` (whole periods after the
+    first) as the simulation ran it: at its ``substeps`` sub-steps per sample (the motion
+    interpolated to them band-limited), its force held over each sub-step (a factor
+    ``(1 - exp(-j w h)) / (j w h)`` per line, ``h`` the sub-step). One realisation of a random-phase
+    multisine gives ``k_eq`` at each line plus the slider's stochastic distortion, which is large
+    where the joint hardly moves (a mode with a near-node at the joint), so ``k_eq`` at the mode
+    is the expected (smooth) one: a straight line in frequency fitted to the per-line ratios over
+    +-10 % of the mode's frequency, weighted by ``|delta|^2``, evaluated at the mode; it replaces
+    the element in the linear structure's eigenproblem, and the mode's frequency is iterated
+    (the window follows the mode as it moves).
 
     Parameters
     ----------
@@ -220,6 +235,8 @@ def truth_modes(tw: Twin, delta: np.ndarray, law, period: int) -> tuple[np.ndarr
         the stuck spring is replayed on ``delta`` from its state at rest.
     period : int
         Samples per period of the multisine.
+    substeps : int, optional
+        Sub-steps per sample of the simulation that produced ``delta``.
 
     Returns
     -------
@@ -228,16 +245,24 @@ def truth_modes(tw: Twin, delta: np.ndarray, law, period: int) -> tuple[np.ndarr
         (ascending).
     damping_ratio : ndarray, shape (n_masses,)
         Damping ratio of every mode (-).
+
+    References
+    ----------
+    Pintelon, R., Schoukens, J. (2012). System Identification: A Frequency Domain Approach, 2nd
+    ed., Wiley-IEEE Press.
     """
     n_per = delta.size // period
     d = delta[period : n_per * period]
+    d_fine = np.fft.irfft(np.fft.rfft(d), d.size * substeps) * substeps
     st = law.initial_state()
-    r = np.empty(d.size)
-    for t in range(d.size):
-        r[t], st = law.residual(float(d[t]), 0.0, st)
-    fd = np.fft.rfft(d.reshape(-1, period), axis=1).mean(axis=0)
-    fr = np.fft.rfft(r.reshape(-1, period), axis=1).mean(axis=0)
+    r = np.empty(d_fine.size)
+    for t in range(d_fine.size):
+        r[t], st = law.residual(float(d_fine[t]), 0.0, st)
     f = np.fft.rfftfreq(period, 1.0 / tw.sample_rate_hz)
+    fd = np.fft.rfft(d.reshape(-1, period), axis=1).mean(axis=0)
+    fr = np.fft.rfft(r.reshape(-1, period * substeps), axis=1).mean(axis=0)[: f.size] / substeps
+    wh = 2 * np.pi * f / (tw.sample_rate_hz * substeps)
+    fr = fr * np.where(wh > 0, (1 - np.exp(-1j * wh)) / np.where(wh > 0, 1j * wh, 1.0), 1.0)
     m, c, k = _matrices(tw)
     e = np.zeros(tw.n_masses)
     e[tw.joint - 1], e[tw.joint] = -1.0, 1.0
@@ -245,12 +270,18 @@ def truth_modes(tw: Twin, delta: np.ndarray, law, period: int) -> tuple[np.ndarr
     f_lin = np.sqrt(w2) / (2 * np.pi)
     out_f, out_z = np.zeros(f_lin.size), np.zeros(f_lin.size)
     minv = np.linalg.inv(m)
+    moving = np.abs(fd) > 1e-6 * np.max(np.abs(fd))
+    ratio = fr / np.where(moving, fd, 1.0)
     for mode, f0 in enumerate(f_lin):
         fc = f0
         for _ in range(3):  # the window follows the mode as it moves with the element's stiffness
-            sel = (np.abs(f - fc) <= max(3 * tw.damping_ratio * fc, 2 * f[1])) & (np.abs(fd) > 0)
-            w = np.abs(fd[sel]) ** 2
-            dk = np.sum(fr[sel] * np.conj(fd[sel])) / np.sum(w) if w.sum() > 0 else 0.0
+            sel = moving & (np.abs(f - fc) <= max(0.1 * fc, 3 * f[1]))
+            dk = 0.0
+            if sel.any():
+                w = np.abs(fd[sel]) ** 2
+                a = np.stack([np.ones(sel.sum()), f[sel] - fc], axis=1) * np.sqrt(w)[:, None]
+                coef, *_ = np.linalg.lstsq(a.astype(complex), ratio[sel] * np.sqrt(w), rcond=None)
+                dk = coef[0]
             kc = k + dk * np.outer(e, e)
             a = np.block([[np.zeros_like(m), np.eye(tw.n_masses)], [-minv @ kc, -minv @ c]])
             lam = np.linalg.eigvals(a)

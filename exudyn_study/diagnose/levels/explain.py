@@ -201,6 +201,8 @@ def diagnosis_with_law(
                 "mean_after": v["mean_after"],
                 "floor": v["floor"],
                 "mean_floor": v["mean_floor"],
+                "mean_noise_floor": v["mean_noise_floor"],
+                "mean_own_fit": v["mean_own_fit"],
                 "held_out": k in ho_labels,
                 "relative_displacement_predicted_m": v["sigma_predicted_m"],
                 "relative_displacement_measured_m": v["sigma_measured_m"],
