@@ -2,15 +2,17 @@
 
 **Twin** (:mod:`exudyn_study.diagnose.twin`): a 12-mode chain (9-148 Hz, 1 % modal damping) with a
 bolted joint between sensors A and B whose stuck stiffness is half slider (Jenkins, slip at
-20 um), a force odd-random multisine (5-160 Hz, period 20 s, 9 periods = 3 min at 400 Hz) at 7
-levels (0.15-1.6 N rms) with 0.5 % noise on every channel and 0.5 % shaker-gain drift from period
-to period; sensors DP (drive point), A and B. No interface is declared. Trained on levels 1, 3,
-5, 7, held out 2, 4, 6. Measured: the wall time of the diagnosis; the located pair and the named
-physics; every mode's frequency and damping per level against the truth (the joint's
-equivalent complex stiffness at each mode, from the simulated joint motion and its friction
-force, put into the linear structure's eigenproblem: :func:`~exudyn_study.diagnose.twin.truth_modes`);
-the held-out FRF errors before and after. The same twin with a linear joint must give no finding.
-Seeds: 0 was used while developing; ``--seeds`` gives others (reported separately).
+20 um), a force odd-random multisine (5-160 Hz, period 20 s) at 7 levels (0.15-1.6 N rms), 3
+realisations of 3 periods each (the first of each its transient; 3 min at 400 Hz per level;
+``--realisations``/``--periods`` change it), 0.5 % noise on every channel and 0.5 % shaker-gain
+drift from period to period; sensors DP (drive point), A and B. No interface is declared.
+Trained on levels 1, 3, 5, 7, held out 2, 4, 6. Measured: the wall time of the diagnosis; the
+located pair and the named physics; every mode's frequency and damping per level against the
+truth (the joint's equivalent complex stiffness at each mode, from the simulated joint motion and
+the slider force replayed on it as the simulation ran it, smooth over frequency, put into the
+linear structure's eigenproblem: :func:`~exudyn_study.diagnose.twin.truth_modes`); the held-out
+FRF errors before and after. The same twin with a linear joint must give no finding. Seeds: 0 was
+used while developing; ``--seeds`` gives others (reported separately).
 
 Held-out criterion: the error of every held-out level is at least halved, **or** the level is at the
 noise floor (its error before is within 10 % of the noise floor from the period-to-period
@@ -33,8 +35,8 @@ Measured FRFs, so the stages after the FRF estimate run (``diagnose_level_frfs``
 1 % standard deviation per line (the file holds none); one channel: nothing can be located or fitted,
 the modal trend is the result. Trained on levels 1, 2, 4, held out 3.
 
-    python benchmarks/bench_diagnose_levels.py [--seeds 0] [--unesp DIR] [--brb FILE] [--out DIR]
-        [--no-results]
+    python benchmarks/bench_diagnose_levels.py [--seeds 0] [--realisations 3] [--periods 3] [--no-twin]
+        [--no-linear] [--unesp DIR] [--brb FILE] [--out DIR] [--no-results]
 
 Figures go with date, commit and load to ``benchmarks/results/bench_diagnose_levels--<case>.json``.
 """
@@ -57,16 +59,25 @@ UNESP_LEVELS = ("05", "10", "15", "20", "25", "30")
 UNESP_TRAIN, UNESP_HOLDOUT = [0, 2, 5], [1, 3, 4]
 
 
-def run_twin(seed: int, friction: bool, out: Path | None) -> dict:
+def run_twin(seed: int, friction: bool, out: Path | None, realisations: int = 3, periods: int = 3) -> dict:
     tw = Twin(period_s=20.0, friction_share=0.5 if friction else 0.0)
     t0 = time.perf_counter()
-    recs, truth = simulate_twin(TWIN_LEVELS_N, twin=tw, periods=9, seed=seed, return_truth=True)
+    recs, truth = simulate_twin(
+        TWIN_LEVELS_N, twin=tw, periods=periods, realisations=realisations, seed=seed, return_truth=True
+    )
     t_sim = time.perf_counter() - t0
     state: dict = {}
     t0 = time.perf_counter()
     with warnings.catch_warnings(record=True) as caught:
         warnings.simplefilter("always")
-        d = diagnose_levels(recs, TRAIN, HOLDOUT, state=state, progress=False)
+        d = diagnose_levels(
+            recs,
+            TRAIN,
+            HOLDOUT,
+            settings=LevelSettings(realisations=realisations),
+            state=state,
+            progress=False,
+        )
     t_diag = time.perf_counter() - t0
     case = f"twin-{'friction' if friction else 'linear'}-seed{seed}"
     if out is not None:
@@ -74,6 +85,9 @@ def run_twin(seed: int, friction: bool, out: Path | None) -> dict:
         write_level_report(d, state, out / case)
     fig = {
         "seed": seed,
+        "realisations": realisations,
+        "periods_per_realisation": periods,
+        "record_s_per_level": realisations * periods * tw.period_s,
         "simulation_s": t_sim,
         "diagnosis_s": t_diag,
         "summary": d.summary,
@@ -277,6 +291,10 @@ def main() -> None:
         "--seeds", type=int, nargs="+", default=[0], help="twin seeds (0: the development seed)"
     )
     parser.add_argument("--no-twin", action="store_true", help="skip the synthetic twin")
+    parser.add_argument("--realisations", type=int, default=3, help="twin: multisine realisations per level")
+    parser.add_argument(
+        "--periods", type=int, default=3, help="twin: periods per realisation (first dropped)"
+    )
     parser.add_argument("--no-linear", action="store_true", help="skip the twin with a linear joint")
     parser.add_argument(
         "--unesp", type=Path, default=None, metavar="DIR", help="the UNESP bolted-beam dataset"
@@ -294,10 +312,15 @@ def main() -> None:
         args.out.mkdir(parents=True, exist_ok=True)
     cases = []
     if not args.no_twin:
-        cases += [(f"twin-seed{s}", lambda s=s: run_twin(s, True, args.out)) for s in args.seeds]
+        rp = (args.realisations, args.periods)
+        tail = "" if rp == (3, 3) else f"-r{rp[0]}p{rp[1]}"
+        cases += [(f"twin-seed{s}{tail}", lambda s=s: run_twin(s, True, args.out, *rp)) for s in args.seeds]
         if not args.no_linear:
             cases.append(
-                (f"twin-linear-seed{args.seeds[0]}", lambda: run_twin(args.seeds[0], False, args.out))
+                (
+                    f"twin-linear-seed{args.seeds[0]}{tail}",
+                    lambda: run_twin(args.seeds[0], False, args.out, *rp),
+                )
             )
     if args.unesp is not None:
         cases.append(("unesp-chirp", lambda: run_unesp(args.unesp, "chirp", None, args.out)))

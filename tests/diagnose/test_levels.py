@@ -97,6 +97,35 @@ def test_period_detection_and_a_declared_period_that_does_not_divide_the_record(
         estimate_level_frf(rec, "ms", LevelSettings(period_s=3.3))
 
 
+def test_realisations_average_to_the_true_frf_and_show_no_distortion_for_a_linear_system():
+    # three realisations of a random-phase multisine, recorded one after the other
+    recs = [_multisine_recording(noise=0.01, periods=4, seed=s) for s in (0, 1, 2)]
+    lines = recs[0][1]
+    chans = [
+        Channel(
+            c.name,
+            c.quantity,
+            c.unit,
+            c.direction,
+            None,
+            FS,
+            np.concatenate([r.channels[i].data for r, _ in recs]),
+            role=c.role,
+        )
+        for i, c in enumerate(recs[0][0].channels)
+    ]
+    rec = Recording(tuple(chans), {"source": "3 realisations"})
+    frf = estimate_level_frf(rec, "ms", LevelSettings(realisations=3))
+    assert frf.excitation == "periodic" and frf.n_periods == 9  # 3 periods each after the transient
+    np.testing.assert_allclose(frf.freq_hz, lines)
+    z = np.abs(frf.H - _frf(frf.freq_hz)) / frf.sigma
+    assert 0.8 < np.sqrt(np.mean(z**2)) < 1.25  # the noise of the mean over realisations
+    # linear: the realisations differ by their noise only, the distortion estimate is within the noise
+    assert np.median(frf.distortion / frf.sigma) < 1.0
+    with pytest.raises(InputError, match="do not split into 7 equal realisations"):
+        estimate_level_frf(rec, "ms", LevelSettings(realisations=7))
+
+
 def test_band_outside_the_data_is_refused():
     rec, _ = _multisine_recording()
     frf = estimate_level_frf(rec, "ms", LevelSettings())
@@ -328,6 +357,8 @@ def test_cli_levels_bad_input_is_one_line_and_writes_nothing(tmp_path, capsys):
     for extra, match in (
         (["--band", "300", "400"], "band 300-400 Hz lies outside the data"),
         (["--period", "3.3"], "does not divide the record"),
+        (["--realisations", "3"], "do not split into 3 equal realisations"),
+        (["--realisations", "0"], "realisations 0; expected an integer >= 1"),
     ):
         assert main(base + extra) == 2
         err = capsys.readouterr().err.strip().splitlines()
