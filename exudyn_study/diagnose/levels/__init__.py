@@ -462,6 +462,10 @@ def write_level_report(diagnosis: Diagnosis, state: dict, directory: str | Path)
         f"<tr><td>{esc('-'.join(e['pair']))}</td><td>{e['score']:+.3f}</td><td>{e['z']:+.1f}</td></tr>"
         for e in meta.get("location_evidence", [])
     )
+    sens = "".join(
+        f"<tr><td>{esc('-'.join(e['pair']))}</td><td>{e['reduced_chi2']:.2f}</td><td>{e['z']:+.1f}</td></tr>"
+        for e in meta.get("location_sensitivity", [])
+    )
     check = "".join(
         f"<tr><td>{esc(c)}</td><td>{v['relative_error']:.3f}</td><td>{v['misfit_in_noise_units']:.1f}</td>"
         f"<td>{'yes' if v['passed'] else 'no'}</td></tr>"
@@ -508,8 +512,15 @@ def write_level_report(diagnosis: Diagnosis, state: dict, directory: str | Path)
         f"<th>misfit / noise</th><th>passed</th></tr>{check}</table>",
         f"<h2>Level trends</h2><table><tr><th>mode</th><th>f (Hz)</th><th>outcome</th><th>frequency</th>"
         f"<th>damping</th></tr>{trends}</table>",
-        f"<h2>Location evidence</h2><table><tr><th>pair</th><th>score</th><th>z</th></tr>{loc}</table>",
+        f"<h2>Location evidence</h2><p>Located by: {esc(str(meta.get('located_by')))}.</p>"
+        "<h3>Relative motion in the level-dependent modes</h3>"
+        f"<table><tr><th>pair</th><th>score</th><th>z</th></tr>{loc}</table>",
     ]
+    if sens:
+        parts.append(
+            "<h3>Eigenvalue sensitivity (every mode's change against its coupling to the pair)</h3>"
+            f"<table><tr><th>pair</th><th>reduced chi-square</th><th>z</th></tr>{sens}</table>"
+        )
     parts += [f"<h2>{esc(p.stem.replace('_', ' '))}</h2><img src='{p.name}'>" for p in figs]
     parts.append(
         "<h2>Modal parameters per level</h2><table><tr><th>recording</th><th>mode</th><th>f (Hz)</th>"
