@@ -30,10 +30,11 @@ random bursts at 0.05-0.30 V. Trained on 0.05, 0.15, 0.30 V, held out 0.10, 0.20
 
 **Brake-Reuss beam** (``--brb FILE``: ``ForcedFrequencyResponses.mat`` of the public repository
 ``mattiacenedese/BRBtesting``, GPL-3.0, Chen et al. / Jin et al. 2022, MSSP 166; read by path): four
-force levels (0.195-1.46 N) of stepped-sine first-harmonic FRFs at 79.2-81.2 Hz, one accelerometer.
-Measured FRFs, so the stages after the FRF estimate run (``diagnose_level_frfs``) with an assumed
-1 % standard deviation per line (the file holds none); one channel: nothing can be located or fitted,
-the modal trend is the result. Trained on levels 1, 2, 4, held out 3.
+force levels (0.195-1.46 N) of stepped-sine first-harmonic FRFs at 79.2-81.2 Hz, one accelerometer,
+and eight response-controlled levels (5-80 m/s^2 at 79-81.2 Hz). Measured FRFs, so the stages after
+the FRF estimate run (``diagnose_level_frfs``) with an assumed 1 % standard deviation per line (the
+file holds none); one channel: nothing can be located or fitted, the modal trend is the result.
+Force control: trained on levels 1, 2, 4, held out 3; response control: held out 2, 4, 6.
 
     python benchmarks/bench_diagnose_levels.py [--seeds 0] [--realisations 3] [--periods 3] [--no-twin]
         [--no-linear] [--unesp DIR] [--brb FILE] [--out DIR] [--no-results]
@@ -240,12 +241,12 @@ def run_unesp(root: Path, kind: str, band, out: Path | None) -> dict:
     return fig
 
 
-def run_brb(path: Path) -> dict:
+def run_brb(path: Path, control: str = "ForceControl") -> dict:
     import scipy.io as sio
 
     from exudyn_study.diagnose.levels import LevelFRF, diagnose_level_frfs
 
-    data = sio.loadmat(path, squeeze_me=True, struct_as_record=False)["FRdata"].ForceControl
+    data = getattr(sio.loadmat(path, squeeze_me=True, struct_as_record=False)["FRdata"], control)
     frfs = []
     for x in data:
         force = np.asarray(x.force, float)
@@ -269,9 +270,16 @@ def run_brb(path: Path) -> dict:
         )
     state: dict = {}
     t0 = time.perf_counter()
-    d = diagnose_level_frfs(frfs, [0, 1, 3], [2], state=state, progress=False)
+    n = len(frfs)
+    holdout = list(range(1, n - 1, 2)) if n > 4 else [2]
+    train = [i for i in range(n) if i not in holdout]
+    d = diagnose_level_frfs(frfs, train, holdout, state=state, progress=False)
     tab = state["table"]
     return {
+        "control": control,
+        "levels_force_rms_n": [f.level for f in frfs],
+        "train": train,
+        "holdout": holdout,
         "diagnosis_s": time.perf_counter() - t0,
         "summary": d.summary,
         "frequency_hz_per_level": tab.frequency_hz.tolist(),
@@ -330,6 +338,7 @@ def main() -> None:
         )
     if args.brb is not None:
         cases.append(("brb-force-control", lambda: run_brb(args.brb)))
+        cases.append(("brb-response-control", lambda: run_brb(args.brb, "ResponseControl")))
     for name, fn in cases:
         fig = fn()
         print(f"== {name}")
