@@ -43,8 +43,14 @@ def _frf(freq_hz, poles=None, residues=None):
     return sum(mode_term(residues[:, k], poles[k], freq_hz) for k in range(poles.size))
 
 
-def _multisine_recording(period_s=4.0, periods=5, noise=0.0, seed=0, band=(5.0, 120.0), skip_every=0):
-    """Force multisine through the closed-form FRFs: periodic steady state, optional white noise."""
+def _multisine_recording(
+    period_s=4.0, periods=5, noise=0.0, seed=0, band=(5.0, 120.0), skip_every=0, scramble=None
+):
+    """Force multisine through the closed-form FRFs: periodic steady state, optional white noise.
+
+    ``scramble=(lo, hi)``: the FRF's phase randomised line by line in that band (Hz), a periodic
+    response that no modal model reproduces.
+    """
     p = int(period_s * FS)
     f = np.fft.rfftfreq(p, 1 / FS)
     rng = np.random.default_rng(seed)
@@ -54,6 +60,9 @@ def _multisine_recording(period_s=4.0, periods=5, noise=0.0, seed=0, band=(5.0, 
         exc[idx[::skip_every]] = False  # detection lines
     u_spec = np.where(exc, np.exp(2j * np.pi * rng.random(f.size)), 0.0)
     y_spec = _frf(f) * u_spec
+    if scramble is not None:
+        m = (f > scramble[0]) & (f < scramble[1])
+        y_spec[:, m] *= np.exp(2j * np.pi * np.random.default_rng(2).random(m.sum()))
     u = np.tile(np.fft.irfft(u_spec, p), periods)
     y = np.tile(np.fft.irfft(y_spec, p), (1, periods))
     y = y + noise * np.std(y, axis=1, keepdims=True) * rng.standard_normal(y.shape)
@@ -340,6 +349,9 @@ def test_cli_levels_bad_input_is_one_line_and_writes_nothing(tmp_path, capsys):
     for i in range(3):
         rec, _ = _multisine_recording(noise=0.002, periods=4, seed=i)
         paths.append(str(write_recording(rec, tmp_path / f"l{i}.h5")))
+    # a lowest level no modal model reproduces: the FRF's phase scrambled line by line in 40-70 Hz
+    rec, _ = _multisine_recording(noise=0.002, periods=4, seed=5, scramble=(40.0, 70.0))
+    bad = str(write_recording(rec, tmp_path / "scrambled.h5"))
     out = tmp_path / "d.json"
     base = [
         "diagnose",
@@ -356,6 +368,7 @@ def test_cli_levels_bad_input_is_one_line_and_writes_nothing(tmp_path, capsys):
     ]
     for extra, match in (
         (["--band", "300", "400"], "band 300-400 Hz lies outside the data"),
+        (["--train", bad, paths[2]], "does not reproduce its own recording"),
         (["--period", "3.3"], "does not divide the record"),
         (["--realisations", "3"], "do not split into 3 equal realisations"),
         (["--realisations", "0"], "realisations 0; expected an integer >= 1"),
