@@ -92,6 +92,9 @@ def configure(parser: argparse.ArgumentParser) -> None:
                         help="analysis band in Hz (default: the contiguous excited band of the reference)")
     parser.add_argument("--period", type=float, default=None, metavar="S",
                         help="levels: period of a periodic drive in s (default: detected from the drive)")
+    parser.add_argument("--realisations", type=int, default=1, metavar="N",
+                        help="levels: the record holds N multisine realisations one after the other, each of "
+                        "whole periods (default 1)")
     parser.add_argument("--excitation", choices=("auto", "periodic", "random"), default="auto",
                         help="levels: FRF estimate for a periodic (multisine) or random drive (default auto)")
     parser.add_argument("--no-progress", action="store_true", help="no progress bars or stage lines (stderr)")
@@ -228,6 +231,7 @@ def _run_levels(args, interfaces, json_path, report) -> int:
     settings = LevelSettings(
         excitation=args.excitation,
         period_s=args.period,
+        realisations=args.realisations,
         band_hz=None if args.band is None else tuple(args.band),
         resolution_hz=args.resolution,
     )

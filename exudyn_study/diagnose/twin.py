@@ -23,7 +23,10 @@ import numpy as np
 from exudyn_study.errors import InputError
 from exudyn_study.recording.types import Channel, Recording
 
-__all__ = ["Twin", "simulate_twin", "truth_modes"]
+__all__ = ["Twin", "simulate_twin", "truth_modes", "SUBSTEPS"]
+
+#: sub-steps per sample of the twin's time simulation (the slider's force is held over each)
+SUBSTEPS = 4
 
 
 @dataclass(frozen=True)
@@ -119,7 +122,12 @@ def _linear_system(tw: Twin):
     )
 
 
-def _multisine(tw: Twin, seed: int):
+def _multisine(tw: Twin, seed: int, realisation: int = 0):
+    """One period of realisation ``realisation`` of the odd random-phase multisine (unit rms).
+
+    The excited lines (and so the detection lines) depend on ``seed`` only; the phases of
+    realisation 0 follow them from the same generator, the others come from ``(seed, realisation)``.
+    """
     p = int(round(tw.period_s * tw.sample_rate_hz))
     f = np.fft.rfftfreq(p, 1.0 / tw.sample_rate_hz)
     rng = np.random.default_rng(seed)
@@ -130,13 +138,21 @@ def _multisine(tw: Twin, seed: int):
     drop = groups[np.arange(groups.shape[0]), rng.integers(0, 4, groups.shape[0])]
     spec = np.zeros(f.size, complex)
     keep = np.setdiff1d(idx, drop)
+    if realisation:
+        rng = np.random.default_rng([seed, realisation])
     spec[keep] = np.exp(2j * np.pi * rng.random(keep.size))
     x = np.fft.irfft(spec, p)
     return x / np.std(x)
 
 
 def simulate_twin(
-    levels_n, *, twin: Twin | None = None, periods: int = 9, seed: int = 0, return_truth: bool = False
+    levels_n,
+    *,
+    twin: Twin | None = None,
+    periods: int = 9,
+    realisations: int = 1,
+    seed: int = 0,
+    return_truth: bool = False,
 ):
     """Simulate the twin's shaker test at several force levels (rms N) into recordings.
 
@@ -146,10 +162,12 @@ def simulate_twin(
         Force rms per level in N.
     twin : Twin, optional
     periods : int
-        Periods of the multisine per level (the first is the start transient).
+        Periods of the multisine per realisation (the first is the transient).
+    realisations : int
+        Realisations of the multisine recorded one after the other at every level (the same
+        realisations at all levels, as a test uses; new phases, the same excited lines).
     seed : int
-        Seed of the multisine phases (one realisation for all levels, as a test uses), the drift
-        and the noise (level ``i`` uses ``seed + i``).
+        Seed of the multisine phases, the drift and the noise (level ``i`` uses ``seed + i``).
     return_truth : bool
         Also return :func:`truth_modes` of every level.
 
@@ -166,8 +184,8 @@ def simulate_twin(
     gather[0, tw.joint], gather[0, tw.joint + 1] = -1.0, 1.0  # delta = B - A
     k_t = tw.friction_share * tw.stiffness_n_per_m
     law = JenkinsFriction(k_t, k_t * tw.slip_m) if tw.friction_share > 0 else CubicStiffening(0.0)
-    base = _multisine(tw, seed)
-    p = base.size
+    bases = [_multisine(tw, seed, r) for r in range(realisations)]
+    p = bases[0].size
     fs = tw.sample_rate_hz
     pos = {
         "DP": (0.1 * tw.drive, 0.0, 0.0),
@@ -177,11 +195,13 @@ def simulate_twin(
     recs, truths = [], []
     for i, level in enumerate(levels_n):
         rng = np.random.default_rng(1000 + seed + i)
-        gains = 1.0 + tw.gain_drift * rng.standard_normal(periods)
-        u = level * np.concatenate([g * base for g in gains])
+        gains = 1.0 + tw.gain_drift * rng.standard_normal(periods * realisations)
+        u = level * np.concatenate([g * bases[k // periods] for k, g in enumerate(gains)])
         drive = Drive()
         drive.set_signal(u, fs)
-        acc, delta = simulate_local_nonlinear(lin, drive, gather, [law], substeps=4, return_deltas=True)
+        acc, delta = simulate_local_nonlinear(
+            lin, drive, gather, [law], substeps=SUBSTEPS, return_deltas=True
+        )
         acc = acc + tw.noise * np.std(acc, axis=1, keepdims=True) * rng.standard_normal(acc.shape)
         u_meas = u + tw.noise * np.std(u) * rng.standard_normal(u.size)
         chans = [
@@ -195,18 +215,30 @@ def simulate_twin(
             )
         )
         if return_truth:
-            truths.append(truth_modes(tw, delta[0], law, p))
+            truths.append(truth_modes(tw, delta[0], law, p, realisations=realisations))
     return (recs, truths) if return_truth else recs
 
 
-def truth_modes(tw: Twin, delta: np.ndarray, law, period: int) -> tuple[np.ndarray, np.ndarray]:
+def truth_modes(
+    tw: Twin, delta: np.ndarray, law, period: int, substeps: int = SUBSTEPS, realisations: int = 1
+) -> tuple[np.ndarray, np.ndarray]:
     """Return the true (frequency in Hz, damping ratio) per mode at one level.
 
-    The slider force is replayed on the simulated joint motion ``delta`` (whole periods after
-    the first); per mode the ratio of the force's and the motion's spectra over the excited
-    lines within +-3 half-power bandwidths of the mode (the window follows the mode as it moves)
-    gives the element's equivalent complex stiffness at that mode, which replaces the element in the
-    linear structure's eigenproblem.
+    The true modal parameters of a level are those of its best linear approximation: the
+    linear structure with the joint element replaced by its equivalent complex stiffness
+    ``k_eq(f) = F_slider(f) / delta(f)`` at the mode (Pintelon & Schoukens 2012, Section 3.4).
+    The slider is replayed on the simulated joint motion ``delta`` from rest, as the simulation
+    ran it: at its ``substeps`` sub-steps per sample (the motion interpolated to them
+    band-limited), its force held over each sub-step (a factor ``(1 - exp(-j w h)) / (j w h)`` per
+    line, ``h`` the sub-step); the spectra are averaged over the periods after the first of every
+    realisation, and the realisations pooled (cross- over auto-spectrum). One realisation of a
+    random-phase multisine gives ``k_eq`` at each line plus the slider's stochastic distortion, which is large
+    where the joint hardly moves (a mode with a near-node at the joint), so ``k_eq`` at the mode
+    is the expected one, which varies smoothly over octaves (the slider is rate independent): a
+    straight line in log frequency fitted to the per-line ratios within a factor ``exp(0.3)``
+    (35 %) of the mode's frequency, weighted by ``|delta|^2``, evaluated at the mode; it replaces
+    the element in the linear structure's eigenproblem, and the mode's frequency is iterated
+    (the window follows the mode as it moves).
 
     Parameters
     ----------
@@ -220,6 +252,10 @@ def truth_modes(tw: Twin, delta: np.ndarray, law, period: int) -> tuple[np.ndarr
         the stuck spring is replayed on ``delta`` from its state at rest.
     period : int
         Samples per period of the multisine.
+    substeps : int, optional
+        Sub-steps per sample of the simulation that produced ``delta``.
+    realisations : int, optional
+        Realisations of the multisine in ``delta``, one after the other, each of whole periods.
 
     Returns
     -------
@@ -228,16 +264,32 @@ def truth_modes(tw: Twin, delta: np.ndarray, law, period: int) -> tuple[np.ndarr
         (ascending).
     damping_ratio : ndarray, shape (n_masses,)
         Damping ratio of every mode (-).
+
+    References
+    ----------
+    Pintelon, R., Schoukens, J. (2012). System Identification: A Frequency Domain Approach, 2nd
+    ed., Wiley-IEEE Press.
     """
-    n_per = delta.size // period
-    d = delta[period : n_per * period]
+    d_fine = np.fft.irfft(np.fft.rfft(delta), delta.size * substeps) * substeps
     st = law.initial_state()
-    r = np.empty(d.size)
-    for t in range(d.size):
-        r[t], st = law.residual(float(d[t]), 0.0, st)
-    fd = np.fft.rfft(d.reshape(-1, period), axis=1).mean(axis=0)
-    fr = np.fft.rfft(r.reshape(-1, period), axis=1).mean(axis=0)
+    r = np.empty(d_fine.size)
+    for t in range(d_fine.size):
+        r[t], st = law.residual(float(d_fine[t]), 0.0, st)
     f = np.fft.rfftfreq(period, 1.0 / tw.sample_rate_hz)
+    block = delta.size // realisations
+    n_per = block // period
+    cross = np.zeros(f.size, complex)
+    auto = np.zeros(f.size)
+    for b in range(realisations):
+        i0 = b * block + period  # the first period of a realisation is its transient
+        i1 = b * block + n_per * period
+        fd = np.fft.rfft(delta[i0:i1].reshape(-1, period), axis=1).mean(axis=0)
+        fr = np.fft.rfft(r[i0 * substeps : i1 * substeps].reshape(-1, period * substeps), axis=1)
+        fr = fr.mean(axis=0)[: f.size] / substeps
+        cross += fr * np.conj(fd)
+        auto += np.abs(fd) ** 2
+    wh = 2 * np.pi * f / (tw.sample_rate_hz * substeps)
+    cross = cross * np.where(wh > 0, (1 - np.exp(-1j * wh)) / np.where(wh > 0, 1j * wh, 1.0), 1.0)
     m, c, k = _matrices(tw)
     e = np.zeros(tw.n_masses)
     e[tw.joint - 1], e[tw.joint] = -1.0, 1.0
@@ -245,12 +297,18 @@ def truth_modes(tw: Twin, delta: np.ndarray, law, period: int) -> tuple[np.ndarr
     f_lin = np.sqrt(w2) / (2 * np.pi)
     out_f, out_z = np.zeros(f_lin.size), np.zeros(f_lin.size)
     minv = np.linalg.inv(m)
+    moving = auto > 1e-12 * np.max(auto)
+    ratio = cross / np.where(moving, auto, 1.0)
     for mode, f0 in enumerate(f_lin):
         fc = f0
         for _ in range(3):  # the window follows the mode as it moves with the element's stiffness
-            sel = (np.abs(f - fc) <= max(3 * tw.damping_ratio * fc, 2 * f[1])) & (np.abs(fd) > 0)
-            w = np.abs(fd[sel]) ** 2
-            dk = np.sum(fr[sel] * np.conj(fd[sel])) / np.sum(w) if w.sum() > 0 else 0.0
+            sel = moving & (np.abs(np.log(np.maximum(f, f[1]) / fc)) <= 0.3)
+            dk = 0.0
+            if sel.any():
+                w = auto[sel]
+                a = np.stack([np.ones(sel.sum()), np.log(f[sel] / fc)], axis=1) * np.sqrt(w)[:, None]
+                coef, *_ = np.linalg.lstsq(a.astype(complex), ratio[sel] * np.sqrt(w), rcond=None)
+                dk = coef[0]
             kc = k + dk * np.outer(e, e)
             a = np.block([[np.zeros_like(m), np.eye(tw.n_masses)], [-minv @ kc, -minv @ c]])
             lam = np.linalg.eigvals(a)

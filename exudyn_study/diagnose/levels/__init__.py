@@ -24,6 +24,7 @@ Imports neither exudyn nor ngsolve.
 
 from __future__ import annotations
 
+import itertools
 import logging
 import sys
 import time
@@ -42,9 +43,9 @@ from exudyn_study.diagnose.levels.explain import (
 )
 from exudyn_study.diagnose.levels.fit import JointLaw, fit_joint_law, prove, scaled_coupling
 from exudyn_study.diagnose.levels.frf import LevelFRF, estimate_level_frf, excited_band
-from exudyn_study.diagnose.levels.locate import locate_pair
+from exudyn_study.diagnose.levels.locate import locate_by_sensitivity, locate_pair
 from exudyn_study.diagnose.levels.reference import ReferenceModel, check_reference, identify_reference
-from exudyn_study.diagnose.levels.screen import ModeTrend, dominant_outcome, screen_trends
+from exudyn_study.diagnose.levels.screen import NONLINEAR, ModeTrend, dominant_outcome, screen_trends
 from exudyn_study.diagnose.levels.settings import LevelSettings
 from exudyn_study.diagnose.schema import Diagnosis
 from exudyn_study.errors import InputError
@@ -239,8 +240,18 @@ def diagnose_level_frfs(
     table = fit_modes_per_level(model, frfs, progress=bar.update)
     bar.close()
     trends = screen_trends(table, settings)
-    pair, evidence = locate_pair(table, trends, ref.channels, settings, interfaces)
+    pair, evidence, sens = _locate(table, trends, model, ref.channels, dp, settings, interfaces)
     meta = _metadata(labels, frfs, ref_i, band, model, table, trends, evidence, res_msgs, train, holdout)
+    meta["location_sensitivity"] = sens
+    meta["located_by"] = (
+        None
+        if pair is None
+        else (
+            "eigenvalue sensitivity"
+            if sens and tuple(sens[0]["pair"]) == pair and sens[0]["z"] > settings.trend_sigma
+            else "relative motion"
+        )
+    )
     if state is not None:
         state.update(
             frfs=frfs,
@@ -261,12 +272,28 @@ def diagnose_level_frfs(
     fit_pair = pair or tuple(evidence[0]["pair"])
     g = scaled_coupling(model, fit_pair, dp) if dp is not None else None
     law = fit_joint_law(table, trends, physics, fit_pair, frfs, model, train, g)
-    proof = prove(model, law, frfs)
+    proof = prove(model, law, frfs, table)
     if state is not None:
         state.update(proof=proof, law=law, physics=physics)
     # ---- explain
     meta["wall_time_s"] = time.perf_counter() - t0
     return diagnosis_with_law(physics, trends, pair, law, proof, model, labels, train, holdout, band, meta)
+
+
+def _locate(table, trends, model, channels, dp, settings, interfaces):
+    """Locate the joint: by eigenvalue sensitivity with mass-normalised shapes, else by relative motion.
+
+    Returns ``(pair, relative-motion evidence, sensitivity evidence)``; the sensitivity ranking
+    (:func:`~.locate.locate_by_sensitivity`) needs a force drive with a drive-point accelerometer and
+    decides when it locates a pair, the relative-motion ranking (:func:`~.locate.locate_pair`) otherwise.
+    """
+    pair, evidence = locate_pair(table, trends, channels, settings, interfaces)
+    if dp is None or not any(t.outcome in NONLINEAR for t in trends):
+        return pair, evidence, []
+    pairs = [tuple(p) for p in interfaces] if interfaces else list(itertools.combinations(channels, 2))
+    couplings = {p: scaled_coupling(model, p, dp) for p in pairs}
+    by_sens, sens = locate_by_sensitivity(table, couplings, settings)
+    return (by_sens or pair), evidence, sens
 
 
 def _resolution_warnings(model: ReferenceModel, ref: LevelFRF, settings: LevelSettings) -> list[str]:
@@ -435,6 +462,10 @@ def write_level_report(diagnosis: Diagnosis, state: dict, directory: str | Path)
         f"<tr><td>{esc('-'.join(e['pair']))}</td><td>{e['score']:+.3f}</td><td>{e['z']:+.1f}</td></tr>"
         for e in meta.get("location_evidence", [])
     )
+    sens = "".join(
+        f"<tr><td>{esc('-'.join(e['pair']))}</td><td>{e['reduced_chi2']:.2f}</td><td>{e['z']:+.1f}</td></tr>"
+        for e in meta.get("location_sensitivity", [])
+    )
     check = "".join(
         f"<tr><td>{esc(c)}</td><td>{v['relative_error']:.3f}</td><td>{v['misfit_in_noise_units']:.1f}</td>"
         f"<td>{'yes' if v['passed'] else 'no'}</td></tr>"
@@ -481,8 +512,15 @@ def write_level_report(diagnosis: Diagnosis, state: dict, directory: str | Path)
         f"<th>misfit / noise</th><th>passed</th></tr>{check}</table>",
         f"<h2>Level trends</h2><table><tr><th>mode</th><th>f (Hz)</th><th>outcome</th><th>frequency</th>"
         f"<th>damping</th></tr>{trends}</table>",
-        f"<h2>Location evidence</h2><table><tr><th>pair</th><th>score</th><th>z</th></tr>{loc}</table>",
+        f"<h2>Location evidence</h2><p>Located by: {esc(str(meta.get('located_by')))}.</p>"
+        "<h3>Relative motion in the level-dependent modes</h3>"
+        f"<table><tr><th>pair</th><th>score</th><th>z</th></tr>{loc}</table>",
     ]
+    if sens:
+        parts.append(
+            "<h3>Eigenvalue sensitivity (every mode's change against its coupling to the pair)</h3>"
+            f"<table><tr><th>pair</th><th>reduced chi-square</th><th>z</th></tr>{sens}</table>"
+        )
     parts += [f"<h2>{esc(p.stem.replace('_', ' '))}</h2><img src='{p.name}'>" for p in figs]
     parts.append(
         "<h2>Modal parameters per level</h2><table><tr><th>recording</th><th>mode</th><th>f (Hz)</th>"

@@ -26,7 +26,14 @@ _WORDS = {
 }
 
 
-def explain_finding(physics: str, trends: list[ModeTrend], pair, proof: dict, holdout: list[str]) -> str:
+def explain_finding(
+    physics: str,
+    trends: list[ModeTrend],
+    pair,
+    proof: dict,
+    holdout: list[str],
+    located_by: str | None = None,
+) -> str:
     """One paragraph: what changes with level, where, and how much the model improves on held-out levels.
 
     Parameters
@@ -42,6 +49,8 @@ def explain_finding(physics: str, trends: list[ModeTrend], pair, proof: dict, ho
         Errors per level label, from :func:`~.fit.prove`.
     holdout : list of str
         Labels of the held-out levels whose error before and after is quoted.
+    located_by : str, optional
+        'eigenvalue sensitivity' or 'relative motion': the evidence that located ``pair``.
 
     Returns
     -------
@@ -54,12 +63,19 @@ def explain_finding(physics: str, trends: list[ModeTrend], pair, proof: dict, ho
         f"({t.frequency_z:+.1f} sigma), damping {100 * t.damping_change:+.0f} % ({t.damping_z:+.1f} sigma)"
         for t in moving
     )
-    where = (
-        f"between sensors {pair[0]} and {pair[1]}, whose relative motion in these modes changes most with "
-        "level"
-        if pair
-        else "at no single sensor pair (the relative motions do not change significantly)"
-    )
+    if pair and located_by == "eigenvalue sensitivity":
+        where = (
+            f"between sensors {pair[0]} and {pair[1]}: a stiffness change across that pair, weighted by each "
+            "mode's coupling to it, explains every mode's change of frequency and damping across the levels "
+            "better than across any other pair"
+        )
+    elif pair:
+        where = (
+            f"between sensors {pair[0]} and {pair[1]}, whose relative motion in these modes changes most "
+            "with level"
+        )
+    else:
+        where = "at no single sensor pair (the relative motions do not change significantly)"
     ho = "; ".join(f"{k}: {proof[k]['mean_before']:.3g} -> {proof[k]['mean_after']:.3g}" for k in holdout)
     return (
         f"The modal parameters change with drive level as {_WORDS.get(physics, physics)}: {modes}. "
@@ -201,6 +217,8 @@ def diagnosis_with_law(
                 "mean_after": v["mean_after"],
                 "floor": v["floor"],
                 "mean_floor": v["mean_floor"],
+                "mean_noise_floor": v["mean_noise_floor"],
+                "mean_own_fit": v["mean_own_fit"],
                 "held_out": k in ho_labels,
                 "relative_displacement_predicted_m": v["sigma_predicted_m"],
                 "relative_displacement_measured_m": v["sigma_measured_m"],
@@ -228,7 +246,7 @@ def diagnosis_with_law(
     location = {"sensors": list(pair) if pair else [], "interface": f"{pair[0]}-{pair[1]}" if pair else None}
     fmodes = [t for t in trends if t.outcome in NONLINEAR]
     mband = (float(min(t.frequency_hz for t in fmodes)), float(max(t.frequency_hz for t in fmodes)))
-    text = explain_finding(physics, trends, pair, proof, ho_labels)
+    text = explain_finding(physics, trends, pair, proof, ho_labels, meta.get("located_by"))
     if not fit["holdout_after"] < fit["holdout_before"]:
         # a law that does not predict the held-out levels better than the reference explains nothing
         meta["fit_rejected"] = fit

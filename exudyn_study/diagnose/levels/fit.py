@@ -51,7 +51,7 @@ Iwan, W. D. (1966). A distributed-element model for hysteresis. J. Appl. Mech. 3
 from __future__ import annotations
 
 import math
-from dataclasses import dataclass
+from dataclasses import dataclass, replace
 
 import numpy as np
 import scipy.optimize
@@ -523,11 +523,19 @@ def predict_poles(model: ReferenceModel, law: JointLaw, frf: LevelFRF) -> tuple[
     return poles, sigma
 
 
-def prove(model: ReferenceModel, law: JointLaw, frfs: list[LevelFRF]) -> dict:
+def prove(
+    model: ReferenceModel, law: JointLaw, frfs: list[LevelFRF], table: ModalTable | None = None
+) -> dict:
     """Relative FRF error per level and channel before (reference model) and after (joint law).
 
     Each level is predicted from its drive alone (:func:`predict_poles`), training and held-out
     levels alike; the error is ``||H_meas - H_model|| / ||H_meas||`` over ``model.band_hz``.
+    Beside it, two floors: the noise alone (period-to-period or coherence scatter,
+    ``||sigma|| / ||H_meas||``), and, with ``table``, the error of the level's own modal fit (the
+    reference model with that level's fitted poles and residues): what a linear modal model
+    fitted to the level itself leaves (noise, the nonlinear distortion of one multisine
+    realisation, the modal model's limits), which no prediction of the level from its drive can
+    be expected to beat.
 
     Parameters
     ----------
@@ -537,23 +545,34 @@ def prove(model: ReferenceModel, law: JointLaw, frfs: list[LevelFRF]) -> dict:
         The fitted joint law ("after").
     frfs : list of LevelFRF
         The levels to compare (the result is keyed by their labels, which must differ).
+    table : ModalTable, optional
+        The modal table of the same levels in the same order (:func:`~.amplitude.fit_modes_per_level`),
+        for the own-fit floor.
 
     Returns
     -------
     dict
         label -> {'before': {ch: e}, 'after': {ch: e}, 'mean_before', 'mean_after', 'floor': {ch: e}
-        and 'mean_floor' (the noise and distortion, below which no model can go),
+        and 'mean_floor' (the noise and distortion estimate), 'mean_noise_floor' (noise alone),
+        'mean_own_fit' (with ``table``, else None),
         'sigma_predicted_m', 'sigma_measured_m', and the arrays 'freq_hz', 'H_measured',
         'H_nominal', 'H_fitted' for the report}.
     """
     out = {}
     ch = list(model.channels)
     i, j = ch.index(law.pair[0]), ch.index(law.pair[1])
-    for frf in frfs:
+    for n, frf in enumerate(frfs):
         m = (frf.freq_hz >= model.band_hz[0]) & (frf.freq_hz <= model.band_hz[1])
         f = frf.freq_hz[m]
         h = frf.H[:, m]
         h0 = synthesise(model, f)
+        own = None
+        if table is not None:
+            w = 2 * np.pi * table.frequency_hz[n]
+            z = table.damping_ratio[n]
+            p_own = -z * w + 1j * w * np.sqrt(np.maximum(1 - z * z, 1e-12))
+            h_own = synthesise(replace(model, residues=table.residues[n]), f, p_own)
+            own = float(np.mean(np.linalg.norm(h - h_own, axis=1) / np.linalg.norm(h, axis=1)))
         poles, sigma = predict_poles(model, law, frf)
         h1 = synthesise(model, f, poles)
         nh = np.linalg.norm(h, axis=1)
@@ -568,6 +587,8 @@ def prove(model: ReferenceModel, law: JointLaw, frfs: list[LevelFRF]) -> dict:
             "mean_after": float(e1.mean()),
             "floor": dict(zip(frf.channels, floor.tolist(), strict=True)),
             "mean_floor": float(floor.mean()),
+            "mean_noise_floor": float(np.mean(np.linalg.norm(frf.sigma[:, m], axis=1) / nh)),
+            "mean_own_fit": own,
             "sigma_predicted_m": float(sigma),
             "sigma_measured_m": relative_displacement(h, f, frf.U[m], i, j),
             "freq_hz": f,

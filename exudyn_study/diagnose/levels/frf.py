@@ -6,7 +6,11 @@ Periodic drive (a multisine): the record is cut into whole periods, the first on
 noise variance of ``H`` (errors in input and output included); the power at the lines the
 drive does not excite, above their own noise, is nonlinear distortion, interpolated to
 the neighbouring excited lines as the stochastic distortion level of ``H`` (Pintelon &
-Schoukens 2012, Sections 2.6 and 3.7). Random drive: one local rational (LRM) estimate over
+Schoukens 2012, Sections 2.6 and 3.7). Several realisations of a random-phase multisine recorded
+one after the other (``LevelSettings.realisations``): each is estimated so, the FRF is their
+mean, and the realisation-to-realisation scatter beyond the noise is the stochastic distortion,
+which the mean reduces by the number of realisations (the robust method, Section 4.3).
+Random drive: one local rational (LRM) estimate over
 the whole record (no window, no leakage), or H1 Welch averages at a given resolution; the
 standard error follows from the coherence (Bendat & Piersol 2010, eq. 9.90).
 
@@ -282,8 +286,79 @@ def estimate_level_frf(rec: Recording, label: str, settings: LevelSettings) -> L
         periods, mismatched drive and responses, or a resolution finer than the record.
     """
     u, y, fs, names, du, ru = _split(rec, label)
+    n_real = settings.realisations
+    if n_real > 1:
+        if settings.excitation == "random" or u.size % n_real:
+            raise InputError(
+                f"recording {label!r}: {u.size} samples do not split into {n_real} equal realisations of a "
+                "periodic drive; give the number of multisine realisations recorded one after the other "
+                "(--realisations), each of whole periods, or leave it at 1"
+            )
+        b = u.size // n_real
+        parts = [
+            _periodic_block(
+                u[i * b : (i + 1) * b],
+                y[:, i * b : (i + 1) * b],
+                fs,
+                settings,
+                f"{label} realisation {i + 1}",
+            )
+            for i in range(n_real)
+        ]
+        if any(pt is None for pt in parts):
+            raise InputError(
+                f"recording {label!r}: a realisation's drive does not repeat itself over whole periods; "
+                "declare the period (--period) or check --realisations"
+            )
+        return _combine_realisations(label, parts, fs, names, du, ru)
+    if settings.excitation != "random":
+        got = _periodic_block(u, y, fs, settings, label)
+        if got is not None:
+            f, h, sig, dist, um, exc, m, period = got
+            dist_sel = None if dist is None else dist[:, exc]
+            level = float(np.sqrt(0.5 * np.sum(np.abs(um[exc]) ** 2)))
+            return LevelFRF(
+                label,
+                level,
+                f[exc],
+                h[:, exc],
+                sig[:, exc],
+                dist_sel,
+                um[exc],
+                "periodic",
+                fs / period,
+                m,
+                names,
+                du,
+                ru,
+            )
+    f, h, sig, dist, um, n_avg, res = _random(u, y, fs, settings, names)
+    keep = f > 0
+    level = float(np.std(u))
+    return LevelFRF(
+        label,
+        level,
+        f[keep],
+        h[:, keep],
+        sig[:, keep],
+        None,
+        um[keep],
+        "random",
+        float(res),
+        n_avg,
+        names,
+        du,
+        ru,
+    )
+
+
+def _periodic_block(u, y, fs, settings: LevelSettings, label: str):
+    """Return the periodic estimate of a block (:func:`_periodic`) and its period, or None (no repetition).
+
+    Raises on a declared period that does not divide the block or a block of fewer than two periods,
+    and (``excitation='periodic'``) on a drive that does not repeat.
+    """
     n = u.size
-    period = None
     if settings.period_s is not None:
         p = settings.period_s * fs
         if abs(p - round(p)) > 1e-6 * p or n % int(round(p)):
@@ -299,46 +374,55 @@ def estimate_level_frf(rec: Recording, label: str, settings: LevelSettings) -> L
                 f"recording {label!r}: {n // period} period of {settings.period_s:g} s; record at "
                 "least two periods"
             )
-    elif settings.excitation in ("auto", "periodic"):
+    else:
         period = detect_period(u, settings.period_correlation)
-        if period is None and settings.excitation == "periodic":
+        if period is None:
+            if settings.excitation == "periodic" or settings.realisations > 1:
+                if settings.realisations > 1:
+                    return None
+                raise InputError(
+                    f"recording {label!r}: the drive does not repeat itself over whole periods; declare the "
+                    "period (--period) or use --excitation random"
+                )
+            return None
+    return (*_periodic(u, y, fs, period), period)
+
+
+def _combine_realisations(label, parts, fs, names, du, ru) -> LevelFRF:
+    """Mean FRF over realisations; noise from the periods, distortion from the scatter beyond it."""
+    exc = parts[0][5]
+    for i, pt in enumerate(parts[1:], start=2):
+        if pt[7] != parts[0][7] or not np.array_equal(pt[5], exc):
             raise InputError(
-                f"recording {label!r}: the drive does not repeat itself over whole periods; declare the "
-                "period (--period) or use --excitation random"
+                f"recording {label!r}: realisation {i} has another period or other excited lines than the "
+                "first; the realisations of a random-phase multisine share period and amplitude spectrum"
             )
-    if period is not None and settings.excitation != "random":
-        f, h, sig, dist, um, exc, m = _periodic(u, y, fs, period)
-        dist_sel = None if dist is None else dist[:, exc]
-        level = float(np.sqrt(0.5 * np.sum(np.abs(um[exc]) ** 2)))
-        return LevelFRF(
-            label,
-            level,
-            f[exc],
-            h[:, exc],
-            sig[:, exc],
-            dist_sel,
-            um[exc],
-            "periodic",
-            fs / period,
-            m,
-            names,
-            du,
-            ru,
-        )
-    f, h, sig, dist, um, n_avg, res = _random(u, y, fs, settings, names)
-    keep = f > 0
-    level = float(np.std(u))
+    f = parts[0][0]
+    hs = np.array([pt[1][:, exc] for pt in parts])  # (R, n_out, n_exc)
+    n_real = hs.shape[0]
+    h = hs.mean(axis=0)
+    var_noise = np.mean([pt[2][:, exc] ** 2 for pt in parts], axis=0) / n_real
+    var_total = np.var(hs, axis=0, ddof=1) / n_real
+    # a variance from a few realisations is itself uncertain: averaged over +-5 lines, as the noise is
+    if var_total.shape[1] > 11:
+        ker = np.ones(11) / 11.0
+        norm = np.convolve(np.ones(var_total.shape[1]), ker, mode="same")
+        var_total = np.array([np.convolve(row, ker, mode="same") / norm for row in var_total])
+    dist = np.sqrt(np.maximum(var_total - var_noise, 0.0))
+    amp = np.sqrt(np.mean([np.abs(pt[4][exc]) ** 2 for pt in parts], axis=0))
+    level = float(np.sqrt(0.5 * np.sum(amp**2)))
+    period = parts[0][7]
     return LevelFRF(
         label,
         level,
-        f[keep],
-        h[:, keep],
-        sig[:, keep],
-        None,
-        um[keep],
-        "random",
-        float(res),
-        n_avg,
+        f[exc],
+        h,
+        np.sqrt(var_noise),
+        dist,
+        amp.astype(complex),
+        "periodic",
+        fs / period,
+        sum(pt[6] for pt in parts),
         names,
         du,
         ru,

@@ -23,6 +23,13 @@ class LevelSettings:
         the drive repeats itself (normalised autocorrelation >= ``period_correlation``).
     period_s : float or None
         Declared period of a periodic drive in s (it must divide the record); None: detected.
+    realisations : int
+        Periodic drive: the record is this many equal blocks, each whole periods of one
+        realisation of a random-phase multisine (same excited lines and amplitudes, new phases;
+        the first period of each block is its transient). The FRF is the mean of the
+        realisations' FRFs; the realisation-to-realisation scatter beyond the noise is the
+        stochastic nonlinear distortion, which averaging over realisations reduces (Pintelon &
+        Schoukens 2012, Section 4.3, the robust method).
     period_correlation : float
         Autocorrelation of the drive at one period above which it counts as periodic (-).
     band_hz : (float, float) or None
@@ -56,6 +63,7 @@ class LevelSettings:
 
     excitation: str = "auto"
     period_s: float | None = None
+    realisations: int = 1
     period_correlation: float = 0.98
     band_hz: tuple[float, float] | None = None
     resolution_hz: float | None = None
@@ -72,6 +80,8 @@ class LevelSettings:
             raise InputError(f"excitation {self.excitation!r}; expected 'auto', 'periodic' or 'random'")
         if self.period_s is not None and not (math.isfinite(self.period_s) and self.period_s > 0):
             raise InputError(f"period {self.period_s!r} s; expected a positive period in s")
+        if not (isinstance(self.realisations, int) and self.realisations >= 1):
+            raise InputError(f"realisations {self.realisations!r}; expected an integer >= 1")
         if self.resolution_hz is not None and not (
             math.isfinite(self.resolution_hz) and self.resolution_hz > 0
         ):
