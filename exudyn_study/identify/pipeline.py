@@ -180,14 +180,16 @@ def identify_frf(
     fit = refit(sel.poles)
     clusters = list(sel.modes)
     if check:
-        report, fit, extra = self_check(frf, fit, poles, sel, band, refit,
-                                        exclude_hz=[float(x) for x in drop_hz])
-        clusters += extra
+        report, fit, clusters = self_check(frf, fit, poles, sel, band, refit, clusters=clusters,
+                                           exclude_hz=[float(x) for x in drop_hz])
         meta["self_check"] = report.as_dict()
         for a in report.added:
             logger.info("self-check added %.3f Hz / %.2f %% (%s): misfit in %.2f-%.2f Hz %.1f -> %.1f",
                         a["frequency_hz"], 100 * a["damping_ratio"], a["source"], *a["band_hz"],
                         a["misfit_before"], a["misfit_after"])
+        for r in report.removed:
+            logger.info("self-check removed %.3f Hz / %.2f %%: %s", r["frequency_hz"],
+                        100 * r["damping_ratio"], r["reason"])
         if report.poor_fit_bands_hz:
             logger.info("self-check: poor fit in %s Hz", report.poor_fit_bands_hz)
     names = frf.outputs or tuple(f"ch{i}" for i in range(frf.H.shape[0]))
