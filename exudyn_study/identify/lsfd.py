@@ -657,6 +657,14 @@ def welch_expectation(
     -------
     ndarray of complex, shape (n_out, n_in, n_freq)
     """
+    if estimator not in ("H1", "H2", "Hv"):
+        raise InputError(f"estimator {estimator!r}: expected 'H1', 'H2' or 'Hv'")
+    return _welch_expectations(result, freq_hz, leakage, (estimator,))[0]
+
+
+def _welch_expectations(result: LSFDResult, freq_hz: np.ndarray, leakage: Leakage,
+                        estimators: tuple[str, ...]) -> list[np.ndarray]:
+    """Return the expected Welch estimates of several estimators from one model evaluation."""
     f = np.asarray(freq_hz, dtype=float)
     df = leakage.sample_rate_hz / leakage.n_segment
     # the kernel is sampled at a quarter of a line, finer where a half-power bandwidth
@@ -673,14 +681,16 @@ def welch_expectation(
     h_fine = synthesise(result, fine)
     idx = lines[:, None] * oversample + np.arange(off.size)[None, :]  # [nf, n_off]
     e_h = h_fine[:, :, idx] @ k
-    if estimator == "H1":
-        return e_h
-    e_hh = (np.abs(h_fine) ** 2)[:, :, idx] @ k
-    if estimator == "Hv":
-        return e_h / np.maximum(np.abs(e_h), np.finfo(float).tiny) * np.sqrt(e_hh)
-    if estimator == "H2":
-        return e_hh / np.conj(e_h)
-    raise InputError(f"estimator {estimator!r}: expected 'H1', 'H2' or 'Hv'")
+    e_hh = (np.abs(h_fine) ** 2)[:, :, idx] @ k if set(estimators) - {"H1"} else None
+    out = []
+    for est in estimators:
+        if est == "H1":
+            out.append(e_h)
+        elif est == "Hv":
+            out.append(e_h / np.maximum(np.abs(e_h), np.finfo(float).tiny) * np.sqrt(e_hh))
+        else:
+            out.append(e_hh / np.conj(e_h))
+    return out
 
 
 def fit_modal_model(
@@ -704,7 +714,8 @@ def fit_modal_model(
     mapped to their H1 equivalent with the current model,
     ``H_meas * E[H1] / E[H_est]`` (:func:`welch_expectation`), and the residues are
     refitted ``iterations`` times (a fixed-point iteration on the bias), the poles
-    refined again on the last of them.
+    refined once, on the mapped data of the second-to-last of them (the starting poles
+    set the first map; the last map is that of the refined poles).
 
     Parameters
     ----------
@@ -740,14 +751,15 @@ def fit_modal_model(
     frf, freq_hz = as_frf(frf, freq_hz)
     poles = _check_poles(poles)
     kw = {"band_hz": band_hz, "frf_form": frf_form, "leakage": leakage}
-    p = refine_poles(frf, freq_hz, poles, weights=weights, **kw) if refine else poles
+    mapped = leakage is not None and estimator in ("H2", "Hv")
+    # with a bias map the poles are refined once, on the mapped data of the last iteration
+    p = refine_poles(frf, freq_hz, poles, weights=weights, **kw) if refine and not mapped else poles
     res = lsfd(frf, freq_hz, p, weights=weights, **kw)
-    if leakage is not None and estimator in ("H2", "Hv"):
+    if mapped:
         sel = band_mask(freq_hz, band_hz)
         n_it = max(0, int(iterations))
         for it in range(n_it):
-            e1 = welch_expectation(res, freq_hz[sel], leakage, "H1")
-            ee = welch_expectation(res, freq_hz[sel], leakage, estimator)
+            e1, ee = _welch_expectations(res, freq_hz[sel], leakage, ("H1", estimator))
             with np.errstate(invalid="ignore", divide="ignore"):
                 corr = np.where(np.abs(ee) > 0, e1 / np.where(ee == 0, 1, ee), 1.0)
             h_eq = frf.copy()
@@ -760,8 +772,9 @@ def fit_modal_model(
                     w_eq[:, :, sel] = np.nan_to_num(w_eq[:, :, sel] / np.abs(corr))
             elif weights is not None:
                 w_eq = weights
-            # the map converges with the residues; the poles are refined on the last pass
-            if refine and it == n_it - 1:
+            # the map converges with the residues; the poles are refined once, on the
+            # second-to-last pass, so that the last map is that of the refined poles
+            if refine and it == max(n_it - 2, 0):
                 p = refine_poles(h_eq, freq_hz, p, weights=w_eq, **kw)
             res = lsfd(h_eq, freq_hz, p, weights=w_eq, **kw)
         # report the fit against the data as measured

@@ -23,6 +23,7 @@ from exudyn_study.identify.model import ModalModel, Mode
 from exudyn_study.identify.polymax import Poles, polymax
 from exudyn_study.identify.resolution import (
     choose_resolution,
+    fft_friendly_resolution,
     first_pass_resolution,
     resolution_warnings,
     window_corrected_damping,
@@ -305,6 +306,7 @@ def identify(
             resolution_hz, chosen["resolution_hz"] = _choose_resolution(
                 reference, response, sample_rate_hz, band_hz, estimator=estimator, overlap=overlap,
                 window=window, mimo=mimo, orders=kwargs.get("orders", DEFAULT_ORDERS))
+            resolution_hz = fft_friendly_resolution(resolution_hz, sample_rate_hz)
         for what, why in chosen.items():
             logger.info("%s chosen: %s", what, why)
         progress.stage("FRF estimate")
@@ -327,11 +329,12 @@ def identify(
             # resolution ask for a finer one the record supports, estimate and identify again
             adv = choose_resolution(result.model.frequency_hz, result.model.damping_ratio, duration,
                                     overlap=overlap)
-            if adv.resolution_hz < 0.99 * frf.resolution_hz:
+            finer = fft_friendly_resolution(adv.resolution_hz, sample_rate_hz)
+            if finer < 0.99 * frf.resolution_hz:
                 progress.stage("refined resolution")
                 chosen["resolution_hz"] = adv.message + " (refined after the first identification)"
                 logger.info("resolution_hz refined: %s", adv.message)
-                frf = estimate_frf(reference, response, sample_rate_hz, resolution_hz=adv.resolution_hz,
+                frf = estimate_frf(reference, response, sample_rate_hz, resolution_hz=finer,
                                    estimator=estimator, overlap=overlap, window=window, mimo=mimo,
                                    fmax_hz=min(nyq, band_hz[1] * 1.2),
                                    outputs=tuple(outputs), inputs=tuple(inputs))
@@ -396,7 +399,7 @@ def _choose_resolution(reference, response, fs, band_hz, *, estimator, overlap, 
                        orders) -> tuple[float, str]:
     """Survey pass (resolution for 30 averages, PolyMAX, selection), then choose_resolution."""
     duration = np.shape(response)[-1] / fs
-    survey = first_pass_resolution(duration, overlap=overlap)
+    survey = fft_friendly_resolution(first_pass_resolution(duration, overlap=overlap), fs)
     frf = estimate_frf(reference, response, fs, resolution_hz=survey, estimator=estimator,
                        overlap=overlap, window=window, mimo=mimo,
                        fmax_hz=min(fs / 2, band_hz[1] * 1.2))

@@ -327,9 +327,11 @@ def _pole_cluster(pole: complex) -> Cluster:
 def _drop_unsupported(frf, fit, clusters, ratio, sel, trial, threshold):
     """Remove modes whose own evidence does not support them.
 
-    A mode is questioned when its shape is not real-mode-like (MPC below 0.9) or it lies
-    within the half-power bandwidth of the narrower of itself and another mode: the
-    footprints of over-modelling and of one mode fitted twice. It is removed when the model
+    A mode is questioned when its shape is not real-mode-like (MPC below 0.9), when it lies
+    within the half-power bandwidth of the narrower of itself and another mode, or within two
+    bandwidths of the wider with a similar shape (MAC above 0.8): the footprints of
+    over-modelling and of one mode fitted twice (a shadow pole beside a lightly damped peak
+    the window smooths). It is removed when the model
     without it fits as well: on the current model's noise scale, the misfit around it (two
     half-power bandwidths, at least three lines each side) stays below ``threshold`` and the
     band median rises by less than 10 %.
@@ -339,10 +341,12 @@ def _drop_unsupported(frf, fit, clusters, ratio, sel, trial, threshold):
     fr, ze = pole_to_modal(fit.poles)
     phase = mpc(fit.shapes)
     order = np.argsort(phase)  # least real-mode-like first
+    similar = mac(fit.shapes, fit.shapes) > 0.8
     for k in order:
         others = np.delete(np.arange(fr.size), k)
-        close = np.any(np.abs(fr[others] - fr[k]) <= np.minimum(ze[others], ze[k]) * fr[k]) \
-            if others.size else False
+        gap = np.abs(fr[others] - fr[k])
+        close = np.any((gap <= np.minimum(ze[others], ze[k]) * fr[k])
+                       | ((gap <= 2 * np.maximum(ze[others], ze[k]) * fr[k]) & similar[k, others]))
         if not (phase[k] < 0.9 or close) or fit.poles.size < 2 or clusters[k].reason == "pinned":
             continue
         new = trial(np.delete(fit.poles, k))
