@@ -521,8 +521,9 @@ def refine_poles(
     -------
     ndarray of complex, shape (n_modes,)
         Refined poles, same order as ``poles``. If the optimiser moves a pole by
-        more than half the distance to its neighbour, the starting poles are
-        returned unchanged (the fit is not trusted).
+        more than half the distance to its neighbour, or drives a damping ratio to the
+        bound of the search (0.9: a pole that left the data to absorb a broad misfit),
+        the starting poles are returned unchanged (the fit is not trusted).
     """
     frf, freq_hz = as_frf(frf, freq_hz)
     poles = _check_poles(poles)
@@ -621,11 +622,13 @@ def refine_poles(
     half = np.full(poles.size, np.inf)
     if gaps.size:
         half[order] = 0.5 * np.minimum(np.r_[np.inf, gaps], np.r_[gaps, np.inf])
-    if not sol.success or np.any(np.abs(fn_new - fn0) > half) or not np.all(np.isfinite(new)):
+    z_new = unpack(sol.x)[1]
+    if (not sol.success or np.any(np.abs(fn_new - fn0) > half) or not np.all(np.isfinite(new))
+            or np.any(z_new >= 0.99 * z_max)):
         logger.warning(
             "refine_poles: the refinement moved a pole by more than half the distance to its "
-            "neighbour (or did not converge); keeping the %d starting poles, whose damping "
-            "carries the window-leakage bias. Two of them probably stand for one mode.",
+            "neighbour or to the damping bound (or did not converge); keeping the %d starting "
+            "poles, whose damping carries the window-leakage bias. Two of them probably stand for one mode.",
             poles.size,
         )
         return poles
