@@ -475,6 +475,43 @@ def synthesise(result: LSFDResult, freq_hz: np.ndarray) -> np.ndarray:
     return h
 
 
+def _levenberg_marquardt(normal, cost, x0: np.ndarray, *, max_iter: int = 200,
+                         tol: float = 1e-8) -> tuple[np.ndarray, bool]:
+    """Minimise a sum of squares from its normal equations (Levenberg-Marquardt).
+
+    ``normal(x) -> (J^T J, J^T r, cost)``, ``cost(x) -> sum r^2``. Marquardt's scaling by the
+    diagonal of J^T J makes the steps invariant to the parameters' units; the damping is
+    lowered after a step that reduces the cost and raised otherwise. Converged when a step
+    changes the cost or the scaled parameters by less than ``tol`` (relative).
+    """
+    x = np.asarray(x0, dtype=float).copy()
+    jtj, jtr, c0 = normal(x)
+    mu = 1e-3
+    for _ in range(int(max_iter)):
+        d = np.maximum(np.diag(jtj), np.finfo(float).tiny)
+        try:
+            step = np.linalg.solve(jtj + mu * np.diag(d), -jtr)
+        except np.linalg.LinAlgError:
+            mu *= 10.0
+            continue
+        if not np.all(np.isfinite(step)):
+            return x, False
+        c1 = cost(x + step)
+        if np.isfinite(c1) and c1 < c0:
+            small = np.sqrt(np.sum(d * step**2)) <= tol * max(np.sqrt(np.sum(d * x**2)), np.sqrt(c0))
+            x = x + step
+            done = (c0 - c1) <= tol * c0 or small
+            jtj, jtr, c0 = normal(x)
+            if done:
+                return x, True
+            mu = max(mu / 3.0, 1e-12)
+        else:
+            mu *= 4.0
+            if mu > 1e12:
+                return x, True  # no descent left: x is a minimum to the precision of the model
+    return x, False
+
+
 def refine_poles(
     frf: np.ndarray,
     freq_hz: np.ndarray,
@@ -585,9 +622,15 @@ def refine_poles(
     def resid(x):
         return evaluate(x)[0].ravel()
 
-    def jac(x):
-        # Kaufman's variable-projection Jacobian: dr/dtheta = -(I - P) W (dA/dtheta) c
-        _, lam, fn, zeta, aw, g, c = evaluate(x)
+    def normal(x):
+        """Return J^T J, J^T r and the cost of Kaufman's variable-projection Jacobian at x.
+
+        J = -(I - P) W (dA/dtheta) c with P the projector onto the weighted basis; as
+        (I - P) is a symmetric projector and r = (I - P) W h, J^T J = V^T V - B^T G^-1 B and
+        J^T r = -V^T r with V = W (dA/dtheta) c and B = A_w^T V: the Jacobian itself
+        ([n_rhs * 2 n_freq, 2 n_modes]) is never formed.
+        """
+        r_vec, lam, fn, zeta, aw, g, c = evaluate(x)
         w = 2 * np.pi * fn
         root = np.sqrt(1 - zeta**2)
         dlam_dw = -zeta + 1j * root
@@ -605,25 +648,24 @@ def refine_poles(
         dar_re = np.vstack([col_re.real, col_re.imag])  # [2 nf, 2 n]
         dar_im = np.vstack([col_im.real, col_im.imag])
         v = dar_re[None, :, :] * c[:, k][:, None, :] + dar_im[None, :, :] * c[:, n + k][:, None, :]
-        wv = wr[:, :, None] * v  # [n_rhs, 2 nf, 2 n]
-        proj = np.matmul(aw, np.linalg.solve(g, np.matmul(aw.transpose(0, 2, 1), wv)))
-        return -(wv - proj).reshape(-1, 2 * n)
+        v *= wr[:, :, None]  # [n_rhs, 2 nf, 2 n]
+        b = np.matmul(aw.transpose(0, 2, 1), v)  # [n_rhs, n_col, 2 n]
+        jtj = np.einsum("rfi,rfj->ij", v, v, optimize=True) \
+            - np.einsum("rci,rcj->ij", b, np.linalg.solve(g, b), optimize=True)
+        jtr = -np.einsum("rfi,rf->i", v, r_vec, optimize=True)
+        return jtj, jtr, float(np.sum(r_vec**2))
 
-    x0 = np.zeros(2 * n)
-    sol = scipy.optimize.least_squares(
-        resid, x0, jac=jac, method="lm", x_scale=np.concatenate([np.full(n, 1e-3),
-                                                                   np.full(n, 0.1)]),
-        max_nfev=max_nfev * (2 * n + 1),
-    )
-    new = modal_to_pole(*unpack(sol.x))
+    x, converged = _levenberg_marquardt(normal, lambda x: float(np.sum(evaluate(x)[0] ** 2)),
+                                        np.zeros(2 * n), max_iter=max_nfev)
+    new = modal_to_pole(*unpack(x))
     fn_new = pole_to_modal(new)[0]
     order = np.argsort(fn0)
     gaps = np.diff(fn0[order])
     half = np.full(poles.size, np.inf)
     if gaps.size:
         half[order] = 0.5 * np.minimum(np.r_[np.inf, gaps], np.r_[gaps, np.inf])
-    z_new = unpack(sol.x)[1]
-    if (not sol.success or np.any(np.abs(fn_new - fn0) > half) or not np.all(np.isfinite(new))
+    z_new = unpack(x)[1]
+    if (not converged or np.any(np.abs(fn_new - fn0) > half) or not np.all(np.isfinite(new))
             or np.any(z_new >= 0.99 * z_max)):
         logger.warning(
             "refine_poles: the refinement moved a pole by more than half the distance to its "
