@@ -42,7 +42,6 @@ from dataclasses import dataclass
 
 import numpy as np
 import scipy.linalg
-import scipy.optimize
 
 from exudyn_study.errors import InputError
 from exudyn_study.identify._checks import as_frf, band_mask, callable_module
