@@ -40,6 +40,7 @@ from __future__ import annotations
 from dataclasses import dataclass
 
 import numpy as np
+import scipy.fft
 import scipy.signal
 
 from exudyn_study.errors import InputError
@@ -267,8 +268,8 @@ def estimate_frf(
         seg_x = x[:, idx]
         seg_f -= seg_f.mean(axis=-1, keepdims=True)  # constant detrend of every segment
         seg_x -= seg_x.mean(axis=-1, keepdims=True)
-        fs_ = np.fft.rfft(seg_f * win, axis=-1)[..., :nf]  # [n_in, seg, nf]
-        xs_ = np.fft.rfft(seg_x * win, axis=-1)[..., :nf]
+        fs_ = scipy.fft.rfft(seg_f * win, axis=-1)[..., :nf]  # [n_in, seg, nf]
+        xs_ = scipy.fft.rfft(seg_x * win, axis=-1)[..., :nf]
         gff += np.einsum("isk,jsk->ijk", fs_, np.conj(fs_))
         gxf += np.einsum("osk,isk->oik", xs_, np.conj(fs_))
         gxx += np.sum(np.abs(xs_) ** 2, axis=1)

@@ -42,7 +42,6 @@ from dataclasses import dataclass
 
 import numpy as np
 import scipy.linalg
-import scipy.optimize
 
 from exudyn_study.errors import InputError
 from exudyn_study.identify._checks import as_frf, band_mask, callable_module
@@ -475,6 +474,43 @@ def synthesise(result: LSFDResult, freq_hz: np.ndarray) -> np.ndarray:
     return h
 
 
+def _levenberg_marquardt(normal, cost, x0: np.ndarray, *, max_iter: int = 200,
+                         tol: float = 1e-8) -> tuple[np.ndarray, bool]:
+    """Minimise a sum of squares from its normal equations (Levenberg-Marquardt).
+
+    ``normal(x) -> (J^T J, J^T r, cost)``, ``cost(x) -> sum r^2``. Marquardt's scaling by the
+    diagonal of J^T J makes the steps invariant to the parameters' units; the damping is
+    lowered after a step that reduces the cost and raised otherwise. Converged when a step
+    changes the cost or the scaled parameters by less than ``tol`` (relative).
+    """
+    x = np.asarray(x0, dtype=float).copy()
+    jtj, jtr, c0 = normal(x)
+    mu = 1e-3
+    for _ in range(int(max_iter)):
+        d = np.maximum(np.diag(jtj), np.finfo(float).tiny)
+        try:
+            step = np.linalg.solve(jtj + mu * np.diag(d), -jtr)
+        except np.linalg.LinAlgError:
+            mu *= 10.0
+            continue
+        if not np.all(np.isfinite(step)):
+            return x, False
+        c1 = cost(x + step)
+        if np.isfinite(c1) and c1 < c0:
+            small = np.sqrt(np.sum(d * step**2)) <= tol * max(np.sqrt(np.sum(d * x**2)), np.sqrt(c0))
+            x = x + step
+            done = (c0 - c1) <= tol * c0 or small
+            jtj, jtr, c0 = normal(x)
+            if done:
+                return x, True
+            mu = max(mu / 3.0, 1e-12)
+        else:
+            mu *= 4.0
+            if mu > 1e12:
+                return x, True  # no descent left: x is a minimum to the precision of the model
+    return x, False
+
+
 def refine_poles(
     frf: np.ndarray,
     freq_hz: np.ndarray,
@@ -521,8 +557,9 @@ def refine_poles(
     -------
     ndarray of complex, shape (n_modes,)
         Refined poles, same order as ``poles``. If the optimiser moves a pole by
-        more than half the distance to its neighbour, the starting poles are
-        returned unchanged (the fit is not trusted).
+        more than half the distance to its neighbour, or drives a damping ratio to the
+        bound of the search (0.9: a pole that left the data to absorb a broad misfit),
+        the starting poles are returned unchanged (the fit is not trusted).
     """
     frf, freq_hz = as_frf(frf, freq_hz)
     poles = _check_poles(poles)
@@ -584,9 +621,15 @@ def refine_poles(
     def resid(x):
         return evaluate(x)[0].ravel()
 
-    def jac(x):
-        # Kaufman's variable-projection Jacobian: dr/dtheta = -(I - P) W (dA/dtheta) c
-        _, lam, fn, zeta, aw, g, c = evaluate(x)
+    def normal(x):
+        """Return J^T J, J^T r and the cost of Kaufman's variable-projection Jacobian at x.
+
+        J = -(I - P) W (dA/dtheta) c with P the projector onto the weighted basis; as
+        (I - P) is a symmetric projector and r = (I - P) W h, J^T J = V^T V - B^T G^-1 B and
+        J^T r = -V^T r with V = W (dA/dtheta) c and B = A_w^T V: the Jacobian itself
+        ([n_rhs * 2 n_freq, 2 n_modes]) is never formed.
+        """
+        r_vec, lam, fn, zeta, aw, g, c = evaluate(x)
         w = 2 * np.pi * fn
         root = np.sqrt(1 - zeta**2)
         dlam_dw = -zeta + 1j * root
@@ -604,28 +647,29 @@ def refine_poles(
         dar_re = np.vstack([col_re.real, col_re.imag])  # [2 nf, 2 n]
         dar_im = np.vstack([col_im.real, col_im.imag])
         v = dar_re[None, :, :] * c[:, k][:, None, :] + dar_im[None, :, :] * c[:, n + k][:, None, :]
-        wv = wr[:, :, None] * v  # [n_rhs, 2 nf, 2 n]
-        proj = np.matmul(aw, np.linalg.solve(g, np.matmul(aw.transpose(0, 2, 1), wv)))
-        return -(wv - proj).reshape(-1, 2 * n)
+        v *= wr[:, :, None]  # [n_rhs, 2 nf, 2 n]
+        b = np.matmul(aw.transpose(0, 2, 1), v)  # [n_rhs, n_col, 2 n]
+        jtj = np.einsum("rfi,rfj->ij", v, v, optimize=True) \
+            - np.einsum("rci,rcj->ij", b, np.linalg.solve(g, b), optimize=True)
+        jtr = -np.einsum("rfi,rf->i", v, r_vec, optimize=True)
+        return jtj, jtr, float(np.sum(r_vec**2))
 
-    x0 = np.zeros(2 * n)
-    sol = scipy.optimize.least_squares(
-        resid, x0, jac=jac, method="lm", x_scale=np.concatenate([np.full(n, 1e-3),
-                                                                   np.full(n, 0.1)]),
-        max_nfev=max_nfev * (2 * n + 1),
-    )
-    new = modal_to_pole(*unpack(sol.x))
+    x, converged = _levenberg_marquardt(normal, lambda x: float(np.sum(evaluate(x)[0] ** 2)),
+                                        np.zeros(2 * n), max_iter=max_nfev)
+    new = modal_to_pole(*unpack(x))
     fn_new = pole_to_modal(new)[0]
     order = np.argsort(fn0)
     gaps = np.diff(fn0[order])
     half = np.full(poles.size, np.inf)
     if gaps.size:
         half[order] = 0.5 * np.minimum(np.r_[np.inf, gaps], np.r_[gaps, np.inf])
-    if not sol.success or np.any(np.abs(fn_new - fn0) > half) or not np.all(np.isfinite(new)):
+    z_new = unpack(x)[1]
+    if (not converged or np.any(np.abs(fn_new - fn0) > half) or not np.all(np.isfinite(new))
+            or np.any(z_new >= 0.99 * z_max)):
         logger.warning(
             "refine_poles: the refinement moved a pole by more than half the distance to its "
-            "neighbour (or did not converge); keeping the %d starting poles, whose damping "
-            "carries the window-leakage bias. Two of them probably stand for one mode.",
+            "neighbour or to the damping bound (or did not converge); keeping the %d starting "
+            "poles, whose damping carries the window-leakage bias. Two of them probably stand for one mode.",
             poles.size,
         )
         return poles
@@ -657,6 +701,14 @@ def welch_expectation(
     -------
     ndarray of complex, shape (n_out, n_in, n_freq)
     """
+    if estimator not in ("H1", "H2", "Hv"):
+        raise InputError(f"estimator {estimator!r}: expected 'H1', 'H2' or 'Hv'")
+    return _welch_expectations(result, freq_hz, leakage, (estimator,))[0]
+
+
+def _welch_expectations(result: LSFDResult, freq_hz: np.ndarray, leakage: Leakage,
+                        estimators: tuple[str, ...]) -> list[np.ndarray]:
+    """Return the expected Welch estimates of several estimators from one model evaluation."""
     f = np.asarray(freq_hz, dtype=float)
     df = leakage.sample_rate_hz / leakage.n_segment
     # the kernel is sampled at a quarter of a line, finer where a half-power bandwidth
@@ -673,14 +725,16 @@ def welch_expectation(
     h_fine = synthesise(result, fine)
     idx = lines[:, None] * oversample + np.arange(off.size)[None, :]  # [nf, n_off]
     e_h = h_fine[:, :, idx] @ k
-    if estimator == "H1":
-        return e_h
-    e_hh = (np.abs(h_fine) ** 2)[:, :, idx] @ k
-    if estimator == "Hv":
-        return e_h / np.maximum(np.abs(e_h), np.finfo(float).tiny) * np.sqrt(e_hh)
-    if estimator == "H2":
-        return e_hh / np.conj(e_h)
-    raise InputError(f"estimator {estimator!r}: expected 'H1', 'H2' or 'Hv'")
+    e_hh = (np.abs(h_fine) ** 2)[:, :, idx] @ k if set(estimators) - {"H1"} else None
+    out = []
+    for est in estimators:
+        if est == "H1":
+            out.append(e_h)
+        elif est == "Hv":
+            out.append(e_h / np.maximum(np.abs(e_h), np.finfo(float).tiny) * np.sqrt(e_hh))
+        else:
+            out.append(e_hh / np.conj(e_h))
+    return out
 
 
 def fit_modal_model(
@@ -704,7 +758,8 @@ def fit_modal_model(
     mapped to their H1 equivalent with the current model,
     ``H_meas * E[H1] / E[H_est]`` (:func:`welch_expectation`), and the residues are
     refitted ``iterations`` times (a fixed-point iteration on the bias), the poles
-    refined again on the last of them.
+    refined once, on the mapped data of the second-to-last of them (the starting poles
+    set the first map; the last map is that of the refined poles).
 
     Parameters
     ----------
@@ -740,14 +795,15 @@ def fit_modal_model(
     frf, freq_hz = as_frf(frf, freq_hz)
     poles = _check_poles(poles)
     kw = {"band_hz": band_hz, "frf_form": frf_form, "leakage": leakage}
-    p = refine_poles(frf, freq_hz, poles, weights=weights, **kw) if refine else poles
+    mapped = leakage is not None and estimator in ("H2", "Hv")
+    # with a bias map the poles are refined once, on the mapped data of the last iteration
+    p = refine_poles(frf, freq_hz, poles, weights=weights, **kw) if refine and not mapped else poles
     res = lsfd(frf, freq_hz, p, weights=weights, **kw)
-    if leakage is not None and estimator in ("H2", "Hv"):
+    if mapped:
         sel = band_mask(freq_hz, band_hz)
         n_it = max(0, int(iterations))
         for it in range(n_it):
-            e1 = welch_expectation(res, freq_hz[sel], leakage, "H1")
-            ee = welch_expectation(res, freq_hz[sel], leakage, estimator)
+            e1, ee = _welch_expectations(res, freq_hz[sel], leakage, ("H1", estimator))
             with np.errstate(invalid="ignore", divide="ignore"):
                 corr = np.where(np.abs(ee) > 0, e1 / np.where(ee == 0, 1, ee), 1.0)
             h_eq = frf.copy()
@@ -760,8 +816,9 @@ def fit_modal_model(
                     w_eq[:, :, sel] = np.nan_to_num(w_eq[:, :, sel] / np.abs(corr))
             elif weights is not None:
                 w_eq = weights
-            # the map converges with the residues; the poles are refined on the last pass
-            if refine and it == n_it - 1:
+            # the map converges with the residues; the poles are refined once, on the
+            # second-to-last pass, so that the last map is that of the refined poles
+            if refine and it == max(n_it - 2, 0):
                 p = refine_poles(h_eq, freq_hz, p, weights=w_eq, **kw)
             res = lsfd(h_eq, freq_hz, p, weights=w_eq, **kw)
         # report the fit against the data as measured

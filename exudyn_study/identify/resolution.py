@@ -24,7 +24,8 @@ from exudyn_study.errors import InputError
 
 __all__ = ["lines_in_half_power", "ResolutionAdvice", "suggest_resolution",
            "resolution_warnings", "MIN_LINES", "first_pass_resolution", "choose_resolution",
-           "FIT_LINES", "PAIR_LINES", "MIN_AVERAGES"]
+           "FIT_LINES", "PAIR_LINES", "MIN_AVERAGES", "HANN_LINES", "window_corrected_damping",
+           "fft_friendly_resolution"]
 
 #: spectral lines in the half-power bandwidth below which damping is flagged
 MIN_LINES = 5.0
@@ -39,6 +40,87 @@ PAIR_LINES = 3.0
 MIN_AVERAGES = 12
 #: averages of the first (survey) pass
 SURVEY_AVERAGES = 30
+
+
+#: half-power width of the Hann window's power kernel in lines (its 3 dB main-lobe width)
+HANN_LINES = 1.44
+
+
+def window_corrected_damping(frequency_hz, damping_ratio, resolution_hz: float) -> np.ndarray:
+    r"""Return damping ratios with the broadening of a Hann-windowed Welch estimate removed.
+
+    A Welch estimate is the FRF smoothed by the window's power kernel; a peak of half-power
+    bandwidth :math:`B = 2\zeta f` then shows the width of a Voigt profile, a Lorentzian of
+    width :math:`B` convolved with a kernel of width :math:`G` = :data:`HANN_LINES` lines,
+    :math:`V \approx 0.5346 B + \sqrt{0.2166 B^2 + G^2}` (Olivero & Longbothum 1977).
+    Inverting it gives the bandwidth behind a damping ratio fitted to the estimate (PolyMAX on
+    a survey FRF); a measured width at or below the kernel's gives a quarter line.
+
+    Parameters
+    ----------
+    frequency_hz, damping_ratio : array_like
+        Natural frequencies (Hz) and damping ratios (-) fitted to the estimate.
+    resolution_hz : float
+        Line spacing of the estimate in Hz.
+
+    Returns
+    -------
+    ndarray
+        Damping ratios (-).
+
+    References
+    ----------
+    Olivero, J. J., Longbothum, R. L. (1977). Empirical fits to the Voigt line width: a brief
+    review. J. Quant. Spectrosc. Radiat. Transfer 17, 233-236.
+    """
+    fr = np.asarray(frequency_hz, float)
+    v = 2 * np.asarray(damping_ratio, float) * fr
+    g = HANN_LINES * float(resolution_hz)
+    # 0.0692 B^2 - 1.0692 V B + (V^2 - G^2) = 0, the smaller root
+    a, b, c = 0.5346**2 - 0.2166, -2 * 0.5346 * v, v**2 - g**2
+    with np.errstate(invalid="ignore"):
+        width = (-b - np.sqrt(np.maximum(b**2 - 4 * a * c, 0.0))) / (2 * a)
+    width = np.where(v > g, width, 0.0)
+    width = np.maximum(width, 0.25 * float(resolution_hz))
+    with np.errstate(invalid="ignore", divide="ignore"):
+        return np.where(fr > 0, width / (2 * fr), np.asarray(damping_ratio, float))
+
+
+def fft_friendly_resolution(resolution_hz: float, sample_rate_hz: float) -> float:
+    """Return the finest resolution at or above ``resolution_hz`` with a fast segment length.
+
+    The FFT of a segment whose length has a large prime factor costs up to ten times that of
+    a length of the form 2^a 3^b 5^c (30769 = 29 x 1061 samples: 0.084 s for 50 segments,
+    30720: 0.008 s); the segment is shortened to the nearest such length, which coarsens the
+    resolution by less than 2 % for segments of a thousand samples or more (and keeps at
+    least as many averages).
+
+    Parameters
+    ----------
+    resolution_hz : float
+        Wanted resolution in Hz.
+    sample_rate_hz : float
+        Sampling rate in Hz.
+
+    Returns
+    -------
+    float
+        ``sample_rate_hz / n`` with ``n`` the largest 5-smooth length at or below
+        ``round(sample_rate_hz / resolution_hz)``.
+    """
+    n = max(1, int(round(sample_rate_hz / resolution_hz)))
+    best = 1
+    p2 = 1
+    while p2 <= n:
+        p3 = p2
+        while p3 <= n:
+            p5 = p3
+            while p5 <= n:
+                best = max(best, p5)
+                p5 *= 5
+            p3 *= 3
+        p2 *= 2
+    return sample_rate_hz / best
 
 
 def lines_in_half_power(frequency_hz, damping_ratio, resolution_hz: float) -> np.ndarray:

@@ -89,3 +89,17 @@ def test_suggested_resolution_uses_record_length():
     assert "12.05 Hz/1.81 % (2.2 lines)" in msgs[0]
     assert "0.05 Hz gives" in msgs[1]
     assert resolution_warnings(f, z, 0.05) == []
+
+
+def test_window_corrected_damping_inverts_the_hann_broadening():
+    from exudyn_study.identify.resolution import HANN_LINES, window_corrected_damping
+
+    # a Lorentzian of width B smoothed by a kernel of width G shows the Voigt width V
+    # (Olivero & Longbothum 1977); the correction gives B back
+    df, f = 0.1, 20.0
+    b = np.array([0.03, 0.1, 0.3, 1.0])
+    g = HANN_LINES * df
+    v = 0.5346 * b + np.sqrt(0.2166 * b**2 + g**2)
+    np.testing.assert_allclose(window_corrected_damping(f, v / (2 * f), df), b / (2 * f), rtol=1e-9)
+    # a peak no wider than the kernel is resolved by nothing: a quarter line
+    assert window_corrected_damping(f, 0.5 * g / (2 * f), df) == pytest.approx(0.25 * df / (2 * f))

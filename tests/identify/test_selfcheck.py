@@ -37,7 +37,8 @@ def test_missing_heavily_damped_mode_is_found_and_reported():
 
     without = modal_to_pole(np.delete(FREQ, 2), np.delete(ZETA, 2))  # the 5.5 % mode left out
     report, fit, clusters = self_check(frf, refit(without), poles, sel, band, refit)
-    assert len(report.added) == 1 and len(clusters) == 1
+    # one mode added; the clusters stand for the four poles of the final fit, in their order
+    assert len(report.added) == 1 and len(clusters) == fit.poles.size == 4 and report.removed == ()
     a = report.added[0]
     assert abs(a["frequency_hz"] / FREQ[2] - 1) < FREQ_RTOL
     assert abs(a["damping_ratio"] / ZETA[2] - 1) < DAMP_RTOL
@@ -74,3 +75,20 @@ def test_misfit_bands_finds_runs_above_threshold_worst_first():
     # 20-run does not (7.3), the single line spans 39..41; mean of the raw ratio over each
     assert [(r[0], r[1]) for r in runs] == [(39, 41), (29, 33), (10, 13)]
     np.testing.assert_allclose([r[2] for r in runs], [34.0, 30.4, 20.0])
+
+
+def test_pole_without_support_in_the_data_is_removed():
+    # a pole between the modes fits only noise: its residues are noise, its shape complex
+    frf = _noisy_frf()
+    band = (4.0, 39.0)
+    poles = polymax(frf.H, frf.freq_hz, range(2, 41), band_hz=band)
+    sel = select_modes(poles)
+
+    def refit(p):
+        return fit_modal_model(frf.H, frf.freq_hz, p, band_hz=band, estimator="H1", refine=False)
+
+    extra = modal_to_pole(np.r_[FREQ, 27.0], np.r_[ZETA, 0.01])
+    report, fit, clusters = self_check(frf, refit(extra), poles, sel, band, refit)
+    assert [round(r["frequency_hz"]) for r in report.removed] == [27]
+    assert len(clusters) == fit.poles.size == 4
+    np.testing.assert_allclose(np.sort(fit.frequency_hz), FREQ, rtol=FREQ_RTOL)
