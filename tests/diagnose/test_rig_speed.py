@@ -1,0 +1,70 @@
+"""The rig diagnosis's reuse of work gives what computing it anew gives (bit for bit where it can)."""
+
+from __future__ import annotations
+
+from types import SimpleNamespace
+
+import numpy as np
+
+from exudyn_study.diagnose.rig_compare import RigRecording, band_filter
+from exudyn_study.diagnose.rig_evaluate import Evaluator
+from exudyn_study.diagnose.rig_prove import channel_damage, relative_damage
+
+
+def _recording(n_channels=6, n=6000, seed=0):
+    rng = np.random.default_rng(seed)
+    measured = rng.standard_normal((n_channels, n))
+    drive = SimpleNamespace(samples=rng.standard_normal(n) * 1e-3)
+    channels = tuple(f"S{k}Z" for k in range(n_channels))
+    scale = 1.0 / np.sqrt(np.mean(band_filter(measured) ** 2, axis=1))
+    return RigRecording("r", drive, measured, channels, 1e-3, band_filter(measured), scale)
+
+
+def _direct(r, sim):
+    return band_filter(r.measured - sim) * r.scale[:, None]
+
+
+def test_filtered_residual_reuses_unchanged_channels_bit_for_bit():
+    r = _recording()
+    ev = Evaluator([r], r.channels, pad_s=1.0)
+    rng = np.random.default_rng(1)
+    sim = rng.standard_normal(r.measured.shape)
+    first = ev._filtered_residual(0, r, sim)
+    assert np.array_equal(first, _direct(r, sim))
+    faulty = sim.copy()
+    faulty[2] *= -1.0  # a polarity fault: one channel changes
+    faulty[4] = 0.0  # a dead channel
+    again = ev._filtered_residual(0, r, faulty)
+    assert np.array_equal(again, _direct(r, faulty))
+    # the reference is the full simulation: the first residual is unchanged by the partial one
+    assert np.array_equal(ev._filtered_residual(0, r, sim), first)
+    other = rng.standard_normal(r.measured.shape)  # every channel changed: filtered anew, the new reference
+    assert np.array_equal(ev._filtered_residual(0, r, other), _direct(r, other))
+    nan = other.copy()
+    nan[1, 5] = np.nan  # not-a-number never compares equal: that channel is filtered (and not finite)
+    assert not np.all(np.isfinite(ev._filtered_residual(0, r, nan)[1]))
+
+
+def test_damage_cache_gives_the_uncached_damage_and_counts_each_array_once():
+    r = _recording(n=8000)
+    rng = np.random.default_rng(2)
+    before = [rng.standard_normal(r.measured.shape)]
+    after = [0.5 * before[0]]
+    cache = {}
+    plain = relative_damage([r], before, after)
+    cached = relative_damage([r], before, after, cache)
+    assert plain == cached
+    # measured, before and after: one entry per array and z channel
+    assert len(cache) == 3 * len(r.channels)
+    # Basquin beta 5: half the amplitude, 1/32 of the damage
+    d0, d1 = channel_damage(before[0], 0), channel_damage(after[0], 0)
+    assert np.isclose(d1 / d0, 0.5**5, rtol=1e-12)
+    # a cached value is not reused for another array that has the same id after the first is freed
+    x = rng.standard_normal((1, 8000))
+    d_x = channel_damage(x, 0, cache)
+    key = (id(x), 0)
+    del x
+    y = 2.0 * rng.standard_normal((1, 8000))
+    if id(y) == key[0]:
+        assert channel_damage(y, 0, cache) != d_x
+    assert np.isclose(channel_damage(y, 0, cache), channel_damage(y, 0), rtol=0, atol=0)
