@@ -68,3 +68,44 @@ def test_damage_cache_gives_the_uncached_damage_and_counts_each_array_once():
     if id(y) == key[0]:
         assert channel_damage(y, 0, cache) != d_x
     assert np.isclose(channel_damage(y, 0, cache), channel_damage(y, 0), rtol=0, atol=0)
+
+
+class _Counting(Evaluator):
+    """An evaluator whose simulations are stand-ins that count the nonlinear ones."""
+
+    calls = 0
+
+    def simulate_exact(self, lin, gains=None):
+        from exudyn_study.diagnose.rig_hypotheses import NonlinearSystem
+
+        if isinstance(lin, NonlinearSystem):
+            _Counting.calls += 1
+            return [np.full(r.measured.shape, 2.0) for r in self.recs]
+        return [np.full(r.measured.shape, 0.5) for r in self.recs]
+
+    def simulate(self, lin, gains=None):
+        return self.simulate_exact(lin, gains)
+
+
+def test_set_offsets_integrates_once_per_recordings_and_returns_to_a_recent_model():
+    from exudyn_study.diagnose.rig_evaluate import set_offsets
+    from exudyn_study.diagnose.rig_hypotheses import NonlinearSystem
+
+    r, other = _recording(seed=3), _recording(seed=4)
+    a, b = _Counting([r], r.channels, 1.0, exact=True), _Counting([r], r.channels, 1.0)
+    c = _Counting([other], other.channels, 1.0, exact=True)
+    first = NonlinearSystem(lin=object(), gather=np.zeros((1, 1)), laws=[], substeps=4)
+    second = NonlinearSystem(lin=object(), gather=np.zeros((1, 1)), laws=[], substeps=4)
+    _Counting.calls = 0
+    set_offsets([a, b, c], first)
+    assert _Counting.calls == 2  # a and b share their recording, c has its own
+    for ev in (a, b, c):  # nonlinear minus linear tangent
+        assert np.all(ev.offset[0] == 1.5)
+    set_offsets([a, b, c], second)
+    assert _Counting.calls == 4
+    set_offsets([a, b, c], first)  # back to the model before: nothing integrated again
+    assert _Counting.calls == 4
+    assert np.all(a.offset[0] == 1.5) and ("exact", id(first)) in a._cache
+    linear = object()
+    set_offsets([a, b, c], linear)  # a linear model clears the offsets
+    assert a.offset is None and b.offset is None and _Counting.calls == 4
