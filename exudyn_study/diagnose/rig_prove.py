@@ -179,7 +179,12 @@ def prove(
             f"the best fit ({labels}) improves the training recordings but worsens the held-out error "
             f"({fit['holdout_before']:.3g} -> {fit['holdout_after']:.3g})",
         )
-    if verdict["share_channels_worse"] > st.max_channels_worse:
+    # a model far off (resonances misplaced: the round fitted log transmissibilities) is proven on the mean
+    # held-out error: its first findings (one of several interacting effects) move channels that only the
+    # later ones put right; the per-channel verdict of the final model is in the metadata
+    far_off = fit["train_before"] > st.spectral_above_error
+    fit["channel_rule_applied"] = not far_off
+    if verdict["share_channels_worse"] > st.max_channels_worse and not far_off:
         labels = " + ".join(f["h"].label for f in batch)
         worse = [f"{c} {a:.2g} -> {b:.2g}" for c, (a, b) in verdict["channels_worse"].items()]
         reason = (
