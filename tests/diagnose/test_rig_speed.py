@@ -109,3 +109,31 @@ def test_set_offsets_integrates_once_per_recordings_and_returns_to_a_recent_mode
     linear = object()
     set_offsets([a, b, c], linear)  # a linear model clears the offsets
     assert a.offset is None and b.offset is None and _Counting.calls == 4
+
+
+def test_joint_fit_members_leave_out_point_candidates():
+    from exudyn_study.diagnose.rig_fit_together import _joint_members
+    from exudyn_study.diagnose.rig_settings import RigDiagnosisSettings
+
+    def hyp(physics, location, component):
+        return SimpleNamespace(
+            physics=physics, location=location, component=component, kind_linear=True, carry="model",
+            one_per_component=False,
+        )
+
+    hyps = [
+        hyp("rear_support_compliance", "rear_left", "rear_left"),
+        hyp("tuned_mass_damper", "ARHTFZH", "tank_right"),
+        hyp("added_mass", "ARFVZ", "frame"),
+        hyp("bushing_stiffness", "bracket_left", "bracket_left"),
+        hyp("drive_linkage_compliance", None, "linkage"),
+    ]
+    scores = [0.5, 0.4, 0.35, 0.2, 0.1]
+    st = RigDiagnosisSettings(composite_max=3)
+    members = _joint_members(hyps, scores, st)
+    # the two point candidates screened second and third take no place: the pad and the linkage do
+    assert [h.physics for h in members] == [
+        "rear_support_compliance",
+        "bushing_stiffness",
+        "drive_linkage_compliance",
+    ]
