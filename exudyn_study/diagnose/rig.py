@@ -140,7 +140,12 @@ def _problem(variant, train, holdout, damping, say, bodies, sensors, candidates,
         )
     _check_layouts(tr + ho)
     damping_fn = parse_damping(damping) if isinstance(damping, str) else damping
-    build = functools.partial(_build_nominal, variant, damping_fn, bodies, sensors, cache_dir)
+    from_cache = bodies is None
+    if from_cache:  # loaded once: the diagnosis builds the model dozens of times (linearisations)
+        from exudyn_study.model import model_bodies
+
+        bodies = model_bodies(variant, cache_dir=cache_dir)
+    build = functools.partial(_build_nominal, variant, damping_fn, bodies, sensors, from_cache)
     say("building the nominal model")
     nominal = assembled_state(build, (), None)
     sensor_names = tuple(nominal.model.sensors)
@@ -185,15 +190,18 @@ def _problem(variant, train, holdout, damping, say, bodies, sensors, candidates,
     return problem, nominal
 
 
-def _build_nominal(variant, damping_fn, bodies, sensors, cache_dir):
-    """Return a fresh nominal model (not assembled)."""
-    from exudyn_study.model import build_model, build_model_from_bodies
+def _build_nominal(variant, damping_fn, bodies, sensors, from_cache: bool):
+    """Return a fresh nominal model (not assembled) of the flexible ``bodies``.
 
-    if bodies is None:
-        return build_model(
-            variant, damping=damping_fn, sensors=sensors, cache_dir=cache_dir, exudyn_mesh="used"
-        )
-    return build_model_from_bodies(bodies, variant, damping=damping_fn, sensors=sensors, exudyn_mesh="used")
+    ``from_cache``: the bodies are the variant's production bodies (those
+    :func:`~exudyn_study.model.build_model` loads), so the model is the one it builds.
+    """
+    from exudyn_study.model import build_model_from_bodies
+
+    model = build_model_from_bodies(bodies, variant, damping=damping_fn, sensors=sensors, exudyn_mesh="used")
+    if from_cache:
+        model.metadata["mesh"] = "production"
+    return model
 
 
 def _nominal_meta(problem: RigProblem, damping, comparison: Comparison) -> dict:
@@ -395,7 +403,7 @@ def _finish(problem, state, comparison, nominal_sims_ho, progress, stop_reason, 
         meta["holdout_median_improvement"] = verdict["holdout_median_improvement"]
         meta["holdout_channels_worse"] = verdict["channels_worse"]
         meta["relative_pseudo_damage"] = relative_damage(
-            problem.hold_recs, nominal_sims_ho, comparison.sims_ho
+            problem.hold_recs, nominal_sims_ho, comparison.sims_ho, problem.damage_cache
         )
         if figures is not None:
             recs = problem.train_recs + problem.hold_recs

@@ -77,6 +77,7 @@ class Evaluator:
         self.sensor_names = tuple(sensor_names)
         self.idx = [np.array([self.sensor_names.index(c) for c in r.channels]) for r in recordings]
         self._cache = {}
+        self._filtered = {}  # recording index -> (simulation, its filtered residual): residual_vector
         self.offset = None  # per recording: added to linear simulations (see set_offsets)
         self.spectra = []
         for r in recordings:
@@ -181,10 +182,32 @@ class Evaluator:
             The residuals of all recordings, each scaled by 1 / sqrt(its size), concatenated, shape (n_rows,).
         """
         parts = []
-        for r, sim in zip(self.recs, self.simulate(lin, gains), strict=True):
-            e = band_filter(r.measured - sim) * r.scale[:, None]
+        for k, (r, sim) in enumerate(zip(self.recs, self.simulate(lin, gains), strict=True)):
+            e = self._filtered_residual(k, r, sim)
             parts.append(e.ravel() / math.sqrt(e.size))
         return np.concatenate(parts)
+
+    def _filtered_residual(self, k: int, r, sim: np.ndarray) -> np.ndarray:
+        """Band-limited, per-channel scaled residual of recording ``k`` (rows filtered only where needed).
+
+        The band filter acts on each channel alone, so a channel whose simulation equals (bit for bit)
+        that of the last fully filtered simulation keeps its filtered residual: a sensor-fault
+        candidate changes one or two channels of the current model's simulation, and only those are
+        filtered for it. Not-a-number rows never compare equal and are filtered.
+        """
+        ref = self._filtered.get(k)
+        if ref is not None and ref[0].shape == sim.shape:
+            same = np.all(sim == ref[0], axis=1)
+            if same.all():
+                return ref[1]
+            if same.any():
+                rows = ~same
+                e = ref[1].copy()
+                e[rows] = band_filter(r.measured[rows] - sim[rows]) * r.scale[rows, None]
+                return e
+        e = band_filter(r.measured - sim) * r.scale[:, None]
+        self._filtered[k] = (sim, e)
+        return e
 
     def errors(self, sims):
         """Per recording, the relative error per channel of the simulations ``sims``.
@@ -432,7 +455,37 @@ def safe_residual(h: Hypothesis, ev: Evaluator, channels, p):
 
     try:
         with np.errstate(all="ignore"):
-            r = ev.residual_vector(h.system(p), combined_gains(h, p, channels))
+            system = h.system(p)
+    except (SimulationError, StudyError, np.linalg.LinAlgError, ValueError):
+        return None
+    return system_residual(ev, system, combined_gains(h, p, channels))
+
+
+def system_residual(ev, system, gains):
+    """Return ``ev``'s residual vector of ``system`` with output ``gains`` (None if it cannot be simulated).
+
+    Given the system object (not a candidate's parameters), a simulation of it that follows
+    (``ev.simulate(system, gains)``) is taken from the evaluator's cache instead of being made again.
+
+    Parameters
+    ----------
+    ev : Evaluator or SpectralEvaluator or DistortionEvaluator
+        Gives the residual vector of a system.
+    system : LinearSystem or NonlinearSystem
+        The system.
+    gains : numpy.ndarray or OutputChain or None
+        Output gain per channel or a chain of acquisition stages (None: all one).
+
+    Returns
+    -------
+    numpy.ndarray or None
+        The residual vector, or None if the simulation fails or is not finite.
+    """
+    from exudyn_study.errors import SimulationError, StudyError
+
+    try:
+        with np.errstate(all="ignore"):
+            r = ev.residual_vector(system, gains)
     except (SimulationError, StudyError, np.linalg.LinAlgError, ValueError):
         return None
     return r if np.all(np.isfinite(r)) else None
@@ -625,6 +678,11 @@ def set_offsets(evaluators, system) -> None:
     nonlinear minus linear-tangent simulation, per recording): the correction's change with
     a linear candidate is of second order. Exact simulations of the accepted model follow.
 
+    The nonlinear simulation (a time integration, the costliest step of a diagnosis with nonlinear
+    findings) is made once per set of recordings (evaluators of the same recordings share it), and
+    an evaluator set back to one of the last :data:`OFFSET_MEMO` systems it had (a rejected round, a
+    joint refit not adopted) takes its offsets from then.
+
     Parameters
     ----------
     evaluators : iterable of Evaluator
@@ -632,14 +690,29 @@ def set_offsets(evaluators, system) -> None:
     system : LinearSystem or NonlinearSystem
         The current model (a linear one clears the offsets).
     """
+    shared = {}  # the recordings' identities -> the nonlinear simulations of ``system``
     for ev in evaluators:
-        ev.offset = None
-        ev._cache = {}
-        if isinstance(system, NonlinearSystem):
-            nonlinear = ev.simulate_exact(system)
-            tangent = ev.simulate(system.lin)
-            ev.offset = [a - b for a, b in zip(nonlinear, tangent, strict=True)]
-            ev._cache = {("exact", id(system)): (system, nonlinear)}  # compare() needs them next
+        memo = [m for m in getattr(ev, "_offsets", []) if m[0] is not system]
+        hit = [m for m in getattr(ev, "_offsets", []) if m[0] is system]
+        ev._filtered = {}
+        if hit:
+            ev.offset, ev._cache = hit[0][1], dict(hit[0][2])
+        else:
+            ev.offset = None
+            ev._cache = {}
+            if isinstance(system, NonlinearSystem):
+                key = tuple(id(r) for r in ev.recs)
+                if key not in shared:
+                    shared[key] = ev.simulate_exact(system)
+                nonlinear = shared[key]
+                tangent = ev.simulate(system.lin)
+                ev.offset = [a - b for a, b in zip(nonlinear, tangent, strict=True)]
+                ev._cache = {("exact", id(system)): (system, nonlinear)}  # compare() needs them next
+        ev._offsets = [(system, ev.offset, dict(ev._cache))] + memo[: OFFSET_MEMO - 1]
+
+
+#: systems whose offsets an evaluator keeps (:func:`set_offsets`)
+OFFSET_MEMO = 2
 
 
 def combined_gains(h: Hypothesis, p, channels):

@@ -26,7 +26,7 @@ from exudyn_study.diagnose.rig_evaluate import (
     fit_hypothesis,
     fit_per_recording,
     response_ratio,
-    safe_residual,
+    system_residual,
 )
 from exudyn_study.diagnose.rig_screen import hypotheses_of, screen_score
 from exudyn_study.diagnose.rig_state import ModelState, RigProblem, RoundFits, Screening
@@ -87,8 +87,9 @@ def fit_on_distortion(cands, ctx, ev_d, ev_time, channels, system, gains, st, sa
         rel_std = np.abs(std) / np.maximum(np.abs(p), 1e-300)
         firm = np.array([n not in h.may_vanish for n in h.names], dtype=bool)
         good = (rel_std < st.max_relative_std) & ~at_bound
-        r_time = safe_residual(h, ev_time, channels, p)
-        sims = None if r_time is None else ev_time.simulate(h.system(p), combined_gains(h, p, channels))
+        sys_p, gains_p = h.system(p), combined_gains(h, p, channels)
+        r_time = system_residual(ev_time, sys_p, gains_p)
+        sims = None if r_time is None else ev_time.simulate(sys_p, gains_p)  # the residual's simulation
         ratio = 0.0 if sims is None else response_ratio(ev_time.recs, sims)
         rss_time = math.inf if r_time is None else float(r_time @ r_time)
         f = {
@@ -255,7 +256,7 @@ def fit_one(problem: RigProblem, screening: Screening, i: int) -> dict:
     firm = np.array([n not in h.may_vanish for n in h.names], dtype=bool)
     good = (rel_std < st.max_relative_std) & ~at_bound
     sys_p, gains_p = h.system(p), combined_gains(h, p, channels)
-    r_fit = safe_residual(h, problem.ev_train, channels, p)
+    r_fit = system_residual(problem.ev_train, sys_p, gains_p)
     if r_fit is None:
         rss, sims_fit, good[:] = 1e9 * rss0, [r.measured * 0.0 for r in problem.train_recs], False
         rss_time = 1e9 * screening.rss0_time

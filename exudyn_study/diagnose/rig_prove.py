@@ -20,7 +20,7 @@ from exudyn_study.diagnose.rig_explain import recording_label
 from exudyn_study.diagnose.rig_state import Comparison, ModelState, Proof, RigProblem
 
 
-def relative_damage(recs, before, after):
+def relative_damage(recs, before, after, cache: dict | None = None):
     """Relative pseudo damage (Basquin beta 5) at the z sensors, before and after, per held-out recording.
 
     Parameters
@@ -31,6 +31,9 @@ def relative_damage(recs, before, after):
         Simulation per recording before the findings, shape (n_channels, n_samples).
     after : sequence of numpy.ndarray
         Simulation per recording after the findings, shape (n_channels, n_samples).
+    cache : dict or None, optional
+        Pseudo damages already counted, by array and row (:func:`channel_damage`); the measured ones and
+        the model before a round (the one after the round before) are then counted once.
 
     Returns
     -------
@@ -38,24 +41,57 @@ def relative_damage(recs, before, after):
         z channel -> ``{'before': d, 'after': d}``: the simulated pseudo damage over the measured one,
         mean over the recordings (1: as measured).
     """
-    from exudyn_study.signals.fatigue import pseudo_damage
-
     out = {}
     for r, b, a in zip(recs, before, after, strict=True):
-        k0 = 1000
         for i, c in enumerate(r.channels):
             if not c.endswith("Z") and "Z" not in c[-2:]:
                 continue
-            d_meas = float(np.sum(pseudo_damage(r.measured[i, k0:])))
+            d_meas = channel_damage(r.measured, i, cache)
             if d_meas <= 0:
                 continue
             out.setdefault(c, {"before": [], "after": []})
-            out[c]["before"].append(float(np.sum(pseudo_damage(b[i, k0:]))) / d_meas)
-            out[c]["after"].append(float(np.sum(pseudo_damage(a[i, k0:]))) / d_meas)
+            out[c]["before"].append(channel_damage(b, i, cache) / d_meas)
+            out[c]["after"].append(channel_damage(a, i, cache) / d_meas)
     return {
         c: {"before": float(np.mean(v["before"])), "after": float(np.mean(v["after"]))}
         for c, v in out.items()
     }
+
+
+#: samples left out at the start of a record before counting its pseudo damage (the start-up)
+DAMAGE_SKIP_SAMPLES = 1000
+
+
+def channel_damage(x: np.ndarray, i: int, cache: dict | None = None) -> float:
+    """Pseudo damage (Basquin beta 5) of row ``i`` of ``x`` after the first :data:`DAMAGE_SKIP_SAMPLES`.
+
+    Parameters
+    ----------
+    x : numpy.ndarray
+        Signals, shape (n_channels, n_samples); not changed afterwards when ``cache`` is given.
+    i : int
+        Row.
+    cache : dict or None, optional
+        Memo by the array's identity (a weak reference: a freed array's entry is never reused) and row.
+
+    Returns
+    -------
+    float
+        The summed pseudo damage of the rainflow cycles.
+    """
+    import weakref
+
+    from exudyn_study.signals.fatigue import pseudo_damage
+
+    if cache is None:
+        return float(np.sum(pseudo_damage(x[i, DAMAGE_SKIP_SAMPLES:])))
+    key = (id(x), i)
+    hit = cache.get(key)
+    if hit is not None and hit[0]() is x:
+        return hit[1]
+    d = float(np.sum(pseudo_damage(x[i, DAMAGE_SKIP_SAMPLES:])))
+    cache[key] = (weakref.ref(x), d)
+    return d
 
 
 def prove(
@@ -108,7 +144,7 @@ def prove(
             for (name, _), e0, e1 in zip(problem.holdout, per_ho0, per_ho1, strict=True)
         },
         "relative_pseudo_damage": relative_damage(
-            problem.hold_recs, comparison.sims_ho, comparison_after.sims_ho
+            problem.hold_recs, comparison.sims_ho, comparison_after.sims_ho, problem.damage_cache
         ),
     }
     held_share = None
@@ -143,7 +179,12 @@ def prove(
             f"the best fit ({labels}) improves the training recordings but worsens the held-out error "
             f"({fit['holdout_before']:.3g} -> {fit['holdout_after']:.3g})",
         )
-    if verdict["share_channels_worse"] > st.max_channels_worse:
+    # a model far off (resonances misplaced: the round fitted log transmissibilities) is proven on the mean
+    # held-out error: its first findings (one of several interacting effects) move channels that only the
+    # later ones put right; the per-channel verdict of the final model is in the metadata
+    far_off = fit["train_before"] > st.spectral_above_error
+    fit["channel_rule_applied"] = not far_off
+    if verdict["share_channels_worse"] > st.max_channels_worse and not far_off:
         labels = " + ".join(f["h"].label for f in batch)
         worse = [f"{c} {a:.2g} -> {b:.2g}" for c, (a, b) in verdict["channels_worse"].items()]
         reason = (

@@ -17,7 +17,7 @@ from __future__ import annotations
 
 import functools
 from collections.abc import Callable
-from dataclasses import dataclass
+from dataclasses import dataclass, field
 
 import numpy as np
 
@@ -77,6 +77,8 @@ class RigProblem:
         (:func:`~exudyn_study.diagnose.rig_locate.distortion_shares`).
     wanted : frozenset of str or None
         Catalogue entries to consider (None: all registered).
+    damage_cache : dict
+        Pseudo damages counted so far (:func:`~exudyn_study.diagnose.rig_prove.channel_damage`).
     """
 
     variant: int
@@ -101,6 +103,7 @@ class RigProblem:
     p_cell: float
     distortion: tuple | None
     wanted: frozenset | None
+    damage_cache: dict = field(default_factory=dict, compare=False, repr=False)
 
     @property
     def evaluators(self) -> tuple:

@@ -609,6 +609,9 @@ def _surface_nodes(body) -> np.ndarray:
 def _sensor_nodes(bodies: Mapping, components: dict, sensor_list) -> list:
     """(sensor, body name, mesh node, distance) per sensor: the nearest surface node of its component."""
     out = []
+    # the candidate nodes depend on the body and the component only: computed once per pair, not per
+    # sensor (a surface's node set is a sort of all its triangles' corners)
+    nodes_of: dict[tuple[str, str], np.ndarray] = {}
     for s in sensor_list:
         body_name = None
         for b, comp in components.items():
@@ -621,10 +624,13 @@ def _sensor_nodes(bodies: Mapping, components: dict, sensor_list) -> list:
                 f"sensor {s.name!r} sits on {s.component!r}, which no body of this model carries"
             )
         body = bodies[body_name].body
-        if components[body_name] is None:
-            candidates = np.intersect1d(body.component_nodes(s.component), _surface_nodes(body))
-        else:
-            candidates = _surface_nodes(body)
+        key = (body_name, s.component if components[body_name] is None else "")
+        if key not in nodes_of:
+            if components[body_name] is None:
+                nodes_of[key] = np.intersect1d(body.component_nodes(s.component), _surface_nodes(body))
+            else:
+                nodes_of[key] = _surface_nodes(body)
+        candidates = nodes_of[key]
         if candidates.size == 0:
             raise InputError(f"sensor {s.name!r}: body {body_name!r} has no surface node on {s.component!r}")
         d = np.linalg.norm(body.node_positions_m[candidates] - np.asarray(s.position_m), axis=1)
