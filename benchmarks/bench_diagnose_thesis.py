@@ -40,11 +40,12 @@ Run: ``python3 benchmarks/bench_diagnose_thesis.py [--out DIR] [--recordings DIR
 [--no-all-prior-start] [--no-results]``
 (``--recordings`` reuses recordings written by an earlier run, only if its truth file is the scenario's
 and its ``recording_code.json`` holds the hash of the current recording code, i.e. the package's sources
-but the diagnosis and the EMA; else new ones are written). Results: ``DIR/thesis_diagnosis.json`` and
-the HTML report ``DIR/report/index.html``; the key figures (findings with fitted against true
-parameters, held-out error, pseudo damage summary, acceptance, wall times) with date, commit and load
-in ``benchmarks/results/bench_diagnose_thesis--<scenario>-<protocol>.json`` (``--no-results``: not
-written; ``benchmarks/make_results_md.py`` collects them in ``benchmarks/RESULTS.md``).
+but the diagnosis and the EMA; else new ones are written). Results: ``DIR/thesis_diagnosis.json``, the
+diagnosis itself in ``DIR/diagnosis.json`` (as ``diagnose --json`` writes it; the damage grid's
+``--diagnosis``) and the HTML report ``DIR/report/index.html``; the key figures (findings with
+fitted against true parameters, held-out error, pseudo damage summary, acceptance, wall times)
+with date, commit and load in ``benchmarks/results/bench_diagnose_thesis--<scenario>-<protocol>.json``
+(``--no-results``: not written; ``benchmarks/make_results_md.py`` collects them in ``benchmarks/RESULTS.md``).
 """
 
 from __future__ import annotations
@@ -258,6 +259,7 @@ def main(argv=None) -> int:
     from exudyn_study.diagnose.report import write_report
 
     report = write_report(d, out_dir / "report", figures)  # what a user gets from ``diagnose --report``
+    d.write_json(out_dir / "diagnosis.json")  # what ``diagnose --json`` writes: the damage grid's --diagnosis
     truth = json.loads((rec_dir / truth_name(sc.name)).read_text())
     augs = truth["augmentations"]
 
