@@ -26,7 +26,6 @@ from __future__ import annotations
 
 import argparse
 import inspect
-import sys
 from pathlib import Path
 
 from exudyn_study.cli.options import Bounded, add_cache_dir
@@ -172,6 +171,8 @@ def run(args: argparse.Namespace) -> int:
 
 
 def _diagnose(args: argparse.Namespace, variant, ref_path, interfaces):
+    from exudyn_study.infra.progress import write_line
+
     quiet = _quiet(args)
     train = _read(args.train, "--train")
     holdout = _read(args.holdout, "--holdout")
@@ -185,7 +186,7 @@ def _diagnose(args: argparse.Namespace, variant, ref_path, interfaces):
         from exudyn_study.infra.cache import cache_dir
 
         cache_dir(args.cache_dir)
-        kwargs = {"progress": None if quiet else (lambda msg: print(msg, file=sys.stderr)),
+        kwargs = {"progress": None if quiet else write_line,
                   "cache_dir": args.cache_dir}
         if "figures" in inspect.signature(rig.diagnose_rig).parameters:
             kwargs["figures"] = figures
@@ -209,7 +210,7 @@ def _diagnose(args: argparse.Namespace, variant, ref_path, interfaces):
         interfaces,
         settings=settings,
         labels=labels,
-        progress=None if _quiet(args) else (lambda msg: print(msg, file=sys.stderr)),
+        progress=None if _quiet(args) else write_line,
         figures=figures,
         drive_point=args.drive_point,
     )

@@ -31,7 +31,7 @@ from pathlib import Path
 
 import numpy as np
 
-from exudyn_study.diagnose.schema import Diagnosis
+from exudyn_study.diagnose.schema import NOT_IDENTIFIABLE, Diagnosis
 from exudyn_study.errors import InputError
 
 __all__ = ["write_report"]
@@ -310,8 +310,6 @@ details{margin:.4em 0}summary{cursor:pointer;color:#2a6fb0}
 pre{font-size:11px;max-height:500px;overflow:auto;background:#f6f6f6;padding:6px}
 """
 
-#: a flag containing this text marks a finding whose parameters the data do not determine
-NOT_IDENTIFIABLE = "not identifiable"
 
 
 class _Html(str):
@@ -359,7 +357,7 @@ def _fmt(v) -> str:
 
 
 def _not_identifiable(f) -> bool:
-    return any(NOT_IDENTIFIABLE in t.lower() for t in f.flags)
+    return not f.identifiable
 
 
 def _where(loc) -> str:
@@ -657,7 +655,7 @@ def write_report(
         "<meta name='viewport' content='width=device-width, initial-scale=1'>"
         f"<title>exudyn_study diagnosis</title><style>{_CSS}</style></head><body>",
         "<h1>Diagnosis</h1>",
-        f"<p class='lead'><b>{html.escape(_headline(diagnosis, found))}</b></p>",
+        f"<p class='lead'><b>{html.escape(diagnosis.summary)}</b></p>",
     ]
     parts += _summary(diagnosis, found, weak, groups)
     if found:
@@ -724,13 +722,3 @@ def write_report(
     from exudyn_study.infra.atomic import write_text_atomic
 
     return write_text_atomic(out / "index.html", "\n".join(parts), "report")
-
-
-def _headline(diagnosis: Diagnosis, found: list) -> str:
-    """One line: the findings (not-identifiable ones left out) and the count of unexplained mismatch."""
-    if not diagnosis.mismatch_found:
-        return "no missing physics found"
-    parts = [f"{f.physics} at {_where(f.location)}" for f in found]
-    if diagnosis.unexplained:
-        parts.append(f"{len(diagnosis.unexplained)} unexplained mismatch(es)")
-    return "; ".join(parts) or "mismatch found, not explained"
