@@ -28,7 +28,7 @@ import argparse
 import inspect
 from pathlib import Path
 
-from exudyn_study.cli.options import Bounded, add_cache_dir
+from exudyn_study.cli.options import Bounded, add_cache_dir, add_hidden_alias
 from exudyn_study.errors import InputError
 
 __all__ = ["configure", "run"]
@@ -59,11 +59,12 @@ def configure(parser: argparse.ArgumentParser) -> None:
         nargs="+",
         default=[],
         metavar="REC",
-        help="held-out recordings (other level or signal), never used for fitting",
+        help="held-out recordings (other level or signal), never used for fitting (default: none)",
     )
     parser.add_argument("--json", required=True, metavar="OUT", help="diagnosis JSON to write")
     parser.add_argument("--report", metavar="DIR",
-                        help="also write an HTML report with figures into DIR (created when missing)")
+                        help="also write an HTML report with figures into DIR (created when missing; "
+                             "default: no report)")
     parser.add_argument(
         "--interface",
         action="append",
@@ -92,8 +93,8 @@ def configure(parser: argparse.ArgumentParser) -> None:
     parser.add_argument("--period", type=float, default=None, metavar="S",
                         help="levels: period of a periodic drive in s (default: detected from the drive)")
     parser.add_argument("--excitation", choices=("auto", "periodic", "random"), default="auto",
-                        help="levels: FRF estimate for a periodic (multisine) or random drive (default auto)")
-    parser.add_argument("--no-progress", action="store_true", help="no progress bars or stage lines (stderr)")
+                        help="levels: FRF estimate for a periodic (multisine) or random drive")
+    add_hidden_alias(parser, "--no-progress", "quiet", action="store_true")  # the one name is --quiet
 
 
 def _parse_model(text: str):
@@ -163,9 +164,8 @@ def run(args: argparse.Namespace) -> int:
     print(f"diagnosis: {diagnosis.summary} -> {args.json}")
     for f in diagnosis.findings:
         print(
-            f"  {f.physics} at {f.location.get('interface') or ', '.join(f.location['sensors'])}: "
-            "held-out error "
-            f"{f.fit['holdout_before']:.3g} -> {f.fit['holdout_after']:.3g}"
+            f"  {f.physics} at {f.place}{'' if f.identifiable else ' (not identifiable, not a finding)'}: "
+            f"held-out error {f.fit['holdout_before']:.3g} -> {f.fit['holdout_after']:.3g}"
         )
     return 0
 
@@ -218,8 +218,8 @@ def _diagnose(args: argparse.Namespace, variant, ref_path, interfaces):
 
 
 def _quiet(args: argparse.Namespace) -> bool:
-    """Return True when progress lines and bars are off (``--quiet`` or ``--no-progress``)."""
-    return bool(getattr(args, "quiet", False) or getattr(args, "no_progress", False))
+    """Return True when progress lines and bars are off (``--quiet``)."""
+    return bool(getattr(args, "quiet", False))
 
 
 def _run_levels(args, interfaces, json_path, report) -> int:
