@@ -104,7 +104,7 @@ def _demo(args: argparse.Namespace, out: Path, shown: Path) -> None:
         read_recording(rec_path), "ARFVZ", band_hz=(3.0, 50.0), resolution_hz=0.2, estimator="Hv"
     )
     write_modes_json(result.model, out / "modes.json")
-    figures = plot_all(result, out / "figures")
+    figures = plot_all(result, out / "figures", **_sensor_layout(recording))
     print(f"      identified {len(result.model.modes)} modes -> {shown / 'modes.json'}")
     print("      mode  f [Hz]   zeta [%]   true f [Hz]  true zeta [%]")
     for i, mode in enumerate(result.model.modes):
@@ -122,6 +122,13 @@ def _demo(args: argparse.Namespace, out: Path, shown: Path) -> None:
             out / "virtual_rig", shown / "virtual_rig", step, args.cache_dir
         )
     (out / "demo_summary.json").write_text(json.dumps(summary, indent=1), encoding="utf-8")
+
+
+def _sensor_layout(recording) -> dict:
+    """Sensor positions (m) and directions of a recording, for the mode-shape figure."""
+    chans = [c for c in recording.channels if c.position_m is not None]
+    return {"positions_m": {c.name: c.position_m for c in chans},
+            "directions": {c.name: c.direction for c in chans}}
 
 
 class _Steps:
@@ -167,7 +174,7 @@ def _virtual_rig(out: Path, shown: Path, step: _Steps, cache_dir=None) -> dict:
         )
         write_modes_json(res.model, out / f"thesis_modes_{reference}.json")
         if not runs:
-            plot_all(res, out / "figures")
+            plot_all(res, out / "figures", **_sensor_layout(recording))
         runs.append([m.to_dict() for m in res.model.modes])
     modes = average_identifications(runs)
     rows = compare_table1([m["frequency_hz"] for m in modes], [m["damping_ratio"] for m in modes])
