@@ -2,6 +2,7 @@
 
 from __future__ import annotations
 
+import io
 import time
 
 import pytest
@@ -54,3 +55,18 @@ def test_status_bar_is_silent_when_switched_off(monkeypatch, capsys):
     with progress.StatusProgress("diagnosis") as status:
         status("comparing")
     assert capsys.readouterr().err == ""
+
+
+def test_keep_alive_refreshes_a_bar_that_waits_for_a_slow_item(monkeypatch):
+    from tqdm import tqdm
+
+    monkeypatch.setattr(progress, "REFRESH_S", 0.05)
+    refreshed = []
+    bar = tqdm(total=2, disable=False, file=io.StringIO())
+    monkeypatch.setattr(bar, "refresh", lambda *a, **k: refreshed.append(time.perf_counter()))
+    with progress.keep_alive(bar):
+        time.sleep(0.3)  # one slow item: no update, yet the bar is redrawn
+    n = len(refreshed)
+    time.sleep(0.15)
+    assert n >= 3 and len(refreshed) == n  # refreshed while the item ran, not after
+    bar.close()

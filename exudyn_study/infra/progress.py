@@ -7,7 +7,7 @@ stderr is not a terminal (tests, CI, logs) unless ``EXUDYN_STUDY_PROGRESS=1``, a
 ``EXUDYN_STUDY_PROGRESS=0`` (the CLI's ``--quiet``). :class:`StatusProgress` does the same for a
 step whose stages are not known in advance (a diagnosis's rounds and candidate fits): it shows the
 elapsed time and the latest status text. :func:`write_line` prints a whole line to stderr without
-tearing an active bar.
+tearing an active bar; :func:`keep_alive` gives any tqdm bar (a sweep's points) the same running clock.
 """
 
 from __future__ import annotations
@@ -15,11 +15,12 @@ from __future__ import annotations
 import os
 import sys
 import threading
-from collections.abc import Sequence
+from collections.abc import Iterator, Sequence
+from contextlib import contextmanager
 
 from tqdm import tqdm
 
-__all__ = ["StageProgress", "StatusProgress", "progress_enabled", "write_line"]
+__all__ = ["StageProgress", "StatusProgress", "keep_alive", "progress_enabled", "write_line"]
 
 #: seconds between refreshes of a bar whose stage is blocking
 REFRESH_S = 1.0
@@ -169,3 +170,36 @@ def write_line(text: str) -> None:
         The line.
     """
     tqdm.write(str(text), file=sys.stderr)
+
+
+@contextmanager
+def keep_alive(bar) -> Iterator:
+    """Refresh the tqdm ``bar`` once a second while the ``with`` body runs, so its clock keeps moving.
+
+    A bar over slow items (a sweep point of minutes) otherwise stands still between two updates.
+
+    Parameters
+    ----------
+    bar : tqdm.tqdm
+        The bar (a disabled bar is left alone).
+
+    Yields
+    ------
+    tqdm.tqdm
+        The same bar.
+    """
+    stop = threading.Event()
+    thread = None
+    if not getattr(bar, "disable", True):
+        def beat() -> None:
+            while not stop.wait(REFRESH_S):
+                bar.refresh()
+
+        thread = threading.Thread(target=beat, daemon=True)
+        thread.start()
+    try:
+        yield bar
+    finally:
+        stop.set()
+        if thread is not None:
+            thread.join()
