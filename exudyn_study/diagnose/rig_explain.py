@@ -86,6 +86,7 @@ def make_finding(
     if params and not any(_determined(v) and not v["at_bound"] for v in params.values()):
         bound.insert(0, f"{NOT_IDENTIFIABLE}: the data determine none of its parameters "
                         "(each at a bound or with a standard deviation larger than its value)")
+        explanation = f"Not identifiable, not a finding: the values below are not determined. {explanation}"
     elif loose:
         bound.append("the data do not determine " + ", ".join(
             f"{n} ({params[n]['value']:.3g} +- {params[n]['std']:.2g} {params[n]['unit']})" for n in loose))

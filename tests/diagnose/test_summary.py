@@ -32,6 +32,7 @@ def test_a_finding_whose_parameters_the_data_do_not_determine_is_flagged_not_ide
     f = _finding([3.61e10, 1e-2], [2.3e12, 0.0], at_bound=(False, True))
     assert not f.identifiable
     assert any(NOT_IDENTIFIABLE in t for t in f.flags)
+    assert f.explanation.startswith("Not identifiable, not a finding")
 
 
 def test_a_determined_parameter_keeps_the_finding_and_the_loose_one_is_named_with_its_value():
