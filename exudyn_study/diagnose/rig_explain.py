@@ -264,7 +264,8 @@ def explain(h: Hypothesis, p, std, lin0, lin1, located) -> str:
     if cand is not None and cand.explain is not None:
         return str(cand.explain(h, v, ExplainContext(shifts=shifts, new_modes_hz=tuple(new), where=where)))
     values = ", ".join(f"{n} = {a:.3g} +- {s:.2g}" for n, (a, s) in v.items())
-    return f"{h.physics} at {h.location}: {values} ({shifts})."
+    place = "" if h.location is None else f" at {h.location}"
+    return f"{h.physics}{place}: {values} ({shifts})."
 
 
 #: the carriers of an unexplained residual hold this share of its coherent energy
