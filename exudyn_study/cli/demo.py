@@ -144,6 +144,7 @@ class _Steps:
 
 def _virtual_rig(out: Path, shown: Path, step: _Steps, cache_dir=None) -> dict:
     """Play the thesis scenario on the virtual rig, identify its white-noise recording, diagnose Model 3."""
+    import dataclasses
     import time
 
     from exudyn_study.diagnose.report import write_report
@@ -202,7 +203,12 @@ def _virtual_rig(out: Path, shown: Path, step: _Steps, cache_dir=None) -> dict:
         )
     figures: dict = {}
     print(f"{step()} diagnosis of Model 3 (Table 6 damping) against the recordings")
-    diagnosis = diagnose_rig(3, [paths[0], paths[2]], [paths[1]], damping="table6", figures=figures,
+    # named by where they end up (the files are staged until the demo ends)
+    named = [
+        dataclasses.replace(r, metadata={**r.metadata, "name": str(shown / p.name)})
+        for p, r in ((p, read_recording(p)) for p in paths)
+    ]
+    diagnosis = diagnose_rig(3, [named[0], named[2]], [named[1]], damping="table6", figures=figures,
                              cache_dir=cache_dir)
     diagnosis.write_json(out / "diagnosis.json")
     write_report(diagnosis, out / "diagnosis_report", figures)

@@ -69,7 +69,8 @@ def _residual_map(data: Mapping, path: Path) -> Path | None:
             seen.add(labels[i])
             keep.append(int(i))
     n = len(keep)
-    fig = _figure(9.0, 1.1 + 1.0 * n * max(1, len(chans)) / 5)
+    height_in = 1.1 + 0.16 * n * max(1, len(chans))  # a 7-pt label per channel row
+    fig = _figure(9.0, height_in)
     axes = fig.subplots(n, 1, sharex=True, squeeze=False)[:, 0]
     z = np.log10(np.maximum(rmap[keep], 1e-3))
     vmax = max(2.0, float(np.nanpercentile(z, 99.5)))
@@ -98,7 +99,9 @@ def _residual_map(data: Mapping, path: Path) -> Path | None:
     axes[0].set_title(
         "residual vs nominal model: log10(|T_model - T|^2 / sigma^2)  (0: at the noise level)", fontsize=9
     )
-    fig.colorbar(im, ax=list(axes), shrink=0.8, label="log10 residual / noise")
+    # a colour bar about 4 in tall, not the whole stack of recordings
+    fig.colorbar(im, ax=list(axes), shrink=min(0.8, 4.0 / height_in), aspect=15,
+                 label="log10 residual / noise")
     return _save(fig, path)
 
 
@@ -552,7 +555,7 @@ def _summary(diagnosis: Diagnosis, found: list, weak: list, groups: list) -> lis
                 + html.escape(", ".join(_fmt(v) for v in vals))
                 + "</p>"
             )
-    if diagnosis.unexplained:
+    if diagnosis.unexplained:  # where and which band here; the explanation once, in its own section
         out.append("<h3>Unexplained mismatch</h3>")
         out.append(
             _table(
@@ -561,11 +564,11 @@ def _summary(diagnosis: Diagnosis, found: list, weak: list, groups: list) -> lis
                         _where(u["location"]),
                         _band(u.get("band_hz")),
                         "yes" if u.get("level_dependent") else "no",
-                        u.get("explanation", ""),
+                        _Html("<a href='#unexplained'>below</a>"),
                     )
                     for u in diagnosis.unexplained
                 ],
-                ("where", "band", "level dependent", "explanation"),
+                ("where", "band", "level dependent", "why"),
             )
         )
     return out
@@ -668,13 +671,15 @@ def write_report(
             "parameters; the values below are not evidence of the physics.</p>"
         )
         parts += [_finding_card(f, fit_no, len(groups), weak=True) for f in weak]
+    if diagnosis.unexplained:
+        parts.append(f"<h2 id='unexplained'>Unexplained mismatch ({len(diagnosis.unexplained)})</h2>")
+    for u in diagnosis.unexplained:
+        parts.append("<div class='card unexplained'>")
+        parts.append(_facts(u["location"], u.get("band_hz"), bool(u.get("level_dependent"))))
+        parts.append(f"<p>{html.escape(u.get('explanation', ''))}</p></div>")
     if groups:
         parts.append("<h2 id='fits'>Error before and after</h2>")
         parts += [_fit_section(fit, members, i, len(groups)) for i, (fit, members) in enumerate(groups, 1)]
-    for u in diagnosis.unexplained:
-        parts.append("<div class='card unexplained'><h3>Unexplained mismatch</h3>")
-        parts.append(_facts(u["location"], u.get("band_hz"), bool(u.get("level_dependent"))))
-        parts.append(f"<p>{html.escape(u.get('explanation', ''))}</p></div>")
     titles = {
         "residual_map.png": "Residual of the nominal model per sensor and frequency",
         "frf_overlay.png": "Measured, nominal and fitted response at the located sensors",
