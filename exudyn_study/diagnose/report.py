@@ -398,7 +398,8 @@ def _param_text(name: str, p: Mapping) -> str:
     unit = "" if p["unit"] in ("", "1", "-") else f" {p['unit']}"
     txt = f"{name} = {_fmt(p['value'])}{unit}"
     if p.get("std") is not None and p["value"]:
-        txt += f" (±{abs(p['std'] / p['value']):.0%})"
+        pct = 100 * abs(p["std"] / p["value"])  # 0.3 % stays 0.3 %, not 0 %
+        txt += f" (±{pct:.1f}%)" if pct < 10 else f" (±{pct:.0f}%)"
     if p.get("at_bound"):
         txt += " [at bound]"
     return txt

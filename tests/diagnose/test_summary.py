@@ -69,3 +69,12 @@ def test_a_global_entry_is_named_without_a_place():
     d = Diagnosis(True, [f], [])
     assert "None" not in d.summary and d.summary == "drive_linkage_compliance at ARFVZ, ARHBZ"
     assert Finding.from_dict(f.to_dict()).identifiable
+
+
+def test_report_states_a_small_relative_std_as_it_is(tmp_path):
+    """A damping of 5.28e5 +- 1.8e3 N s/m is 0.3 % uncertain: the page says 0.3 %, not 0 %."""
+    from exudyn_study.diagnose.report import write_report
+
+    f = _finding([2e7, 5.28e5], [1e6, 1.8e3])
+    page = write_report(Diagnosis(True, [f], []), tmp_path / "r", {}).read_text(encoding="utf-8")
+    assert "(±0.3%)" in page and "(±5.0%)" in page and "(±0%)" not in page
