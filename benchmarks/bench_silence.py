@@ -19,7 +19,8 @@ for each ``studies/<name>.py`` (``study-damage_grid`` needs ``--measured-dir``, 
 ``virtual_rig`` folder a ``demo --virtual-rig`` wrote). ``--study-args`` passes options on to
 the study (``--quick`` for ``sweep_damping``: the same stages with 20 s drives).
 
-Writes ``benchmarks/results/bench_silence--<case>.json`` (the figures, the five longest gaps
+Writes ``benchmarks/results/bench_silence--<case>.json`` (``<case>-empty-cache`` with
+``--empty-cache``; the figures, the five longest gaps
 with the line before each, the exit code) and keeps the raw output in ``--log``.
 """
 
@@ -232,7 +233,8 @@ def main(argv=None) -> int:
     for g in gaps[:5]:
         print(f"  {g.length_s:7.1f} s at {g.start_s:7.1f} s after {g.line_before[:100]!r}")
     if not args.no_results:
-        print("wrote", write_results("bench_silence", figures, args=args, case=args.case, start=run))
+        case = args.case + ("-empty-cache" if args.empty_cache and args.case != "demo-empty-cache" else "")
+        print("wrote", write_results("bench_silence", figures, args=args, case=case, start=run))
     if args.work_dir is None and not args.keep:
         shutil.rmtree(work, ignore_errors=True)
     return 0 if figures["first_output_ok"] and figures["gap_ok"] and code == 0 else 1
