@@ -10,7 +10,7 @@ Acceptance (issue 32): first output within 5 s, never silent for more than 30 s.
     python benchmarks/bench_silence.py --case demo-empty-cache
     python benchmarks/bench_silence.py --case demo-virtual-rig
     python benchmarks/bench_silence.py --case study-model2 [--study-args --mesh coarse]
-    python benchmarks/bench_silence.py --case custom -- exudyn-study identify rec.h5 --out o
+    python benchmarks/bench_silence.py --case custom --label generic -- python3 benchmarks/bench_x.py
 
 Named cases: ``demo-empty-cache`` (the README's first command, ``exudyn-study demo --out DIR``,
 with ``EXUDYN_STUDY_CACHE`` set to an empty temporary directory), ``demo-virtual-rig``
@@ -190,6 +190,8 @@ def main(argv=None) -> int:
     parser.add_argument("--measured-dir", default=None, help="recordings for study-damage_grid")
     parser.add_argument("--study-args", nargs=argparse.REMAINDER, default=[],
                         help="options passed on to the study script (last on the line)")
+    parser.add_argument("--label", default=None,
+                        help="result name of --case custom (bench_silence--custom-<label>.json)")
     parser.add_argument("--timeout", type=float, default=7200.0, help="stop the command after this many s")
     parser.add_argument("--log", default=None, help="raw output file (default: <work dir>/output.log)")
     parser.add_argument("--work-dir", default=None, help="output and cache folder (default: a temporary one)")
@@ -234,6 +236,7 @@ def main(argv=None) -> int:
         print(f"  {g.length_s:7.1f} s at {g.start_s:7.1f} s after {g.line_before[:100]!r}")
     if not args.no_results:
         case = args.case + ("-empty-cache" if args.empty_cache and args.case != "demo-empty-cache" else "")
+        case += f"-{args.label}" if args.case == "custom" and args.label else ""
         print("wrote", write_results("bench_silence", figures, args=args, case=case, start=run))
     if args.work_dir is None and not args.keep:
         shutil.rmtree(work, ignore_errors=True)
