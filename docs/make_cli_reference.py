@@ -15,6 +15,7 @@ from __future__ import annotations
 
 import argparse
 import os
+import re
 import sys
 from pathlib import Path
 
@@ -62,6 +63,40 @@ def _help(action: argparse.Action) -> str:
     return _cell(text)
 
 
+def option_table(parser: argparse.ArgumentParser) -> list[str]:
+    """Return the Markdown table of the option names: each name, the subcommands that take it, its meaning.
+
+    One row per listed option name (hidden aliases left out), in alphabetical order; the
+    meaning is the shortest of the option's help texts in the subcommands, without the default
+    (the subcommands' own tables give each help in full).
+
+    Parameters
+    ----------
+    parser : argparse.ArgumentParser
+        The ``exudyn-study`` parser.
+    """
+    from exudyn_study.cli import SUBCOMMANDS
+
+    sub = next(a for a in parser._actions if isinstance(a, argparse._SubParsersAction))
+    rows: dict[str, tuple[list, str]] = {}
+    for name in SUBCOMMANDS:
+        for action in sub.choices[name]._actions:
+            if (action.help == argparse.SUPPRESS or isinstance(action, argparse._HelpAction)
+                    or not action.option_strings):
+                continue
+            key = ", ".join(sorted(action.option_strings, key=len, reverse=True))
+            meaning = re.sub(r"(\s*\(default:[^)]*\)|;\s*default:[^)]*| \(required\))", "", _help(action))
+            rows.setdefault(key, ([], []))[0].append(name)
+            rows[key][1].append(meaning)
+    lines = ["| option | subcommands | meaning (the shortest of its help texts) |", "|---|---|---|"]
+    for key in sorted(rows, key=lambda k: k.lstrip("-").lower()):
+        names, meanings = rows[key]
+        meaning = min(meanings, key=len)
+        shown = "every subcommand" if len(names) == len(SUBCOMMANDS) else ", ".join(names)
+        lines.append(f"| `{key}` | {shown} | {meaning} |")
+    return lines
+
+
 def reference() -> str:
     """Return the Markdown reference of every subcommand."""
     from exudyn_study.cli import SUBCOMMANDS, build_parser
@@ -77,13 +112,18 @@ def reference() -> str:
         "Every subcommand accepts `-v/--verbose` and `-q/--quiet` before or after its name. Bad input",
         "(an unknown option or choice, a value out of range, an unreadable or malformed file, an output",
         "that is an input or cannot be written) is reported on one line on stderr with exit code 2,",
-        "and nothing is written. Output directories are created when missing.",
+        "and nothing is written. Output directories are created when missing. Long steps show progress",
+        "bars on stderr when it is a terminal, with a clock that keeps running while a step blocks",
+        "(`-q` turns them off; `EXUDYN_STUDY_PROGRESS=1` shows them in a log too).",
         "",
         "| subcommand | what it does |",
         "|---|---|",
     ]
     for name, (_, help_text) in SUBCOMMANDS.items():
         lines.append(f"| [`{name}`](#{name}) | {_cell(help_text)} |")
+    lines += ["", "## Options by name", "",
+              "One name per concept: the same name means the same thing in every subcommand that takes it.",
+              ""] + option_table(parser)
     for name in SUBCOMMANDS:
         p = sub.choices[name]
         lines += ["", f"## {name}", "", _cell(p.description or ""), "", "```", p.format_usage().strip(),

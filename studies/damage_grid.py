@@ -75,14 +75,15 @@ def parse_args(argv=None) -> argparse.Namespace:
 def main(argv=None) -> int:
     from exudyn_study.bodies.spec import parse_mesh
     from exudyn_study.errors import InputError
+    from exudyn_study.infra.progress import write_line
     from exudyn_study.sweep.damage_grid import measured_recordings, run_grid
 
     args = parse_args(argv)
     logging.basicConfig(level=logging.WARNING, format="%(levelname)s %(name)s: %(message)s")
     t0 = time.perf_counter()
 
-    def progress(text: str) -> None:
-        print(f"[{time.perf_counter() - t0:7.1f} s] {text}", flush=True)
+    def progress(text: str) -> None:  # a line above the grid's status bar (stderr)
+        write_line(f"[{time.perf_counter() - t0:7.1f} s] {text}")
 
     try:
         measured = measured_recordings(args.measured_dir, args.signals)

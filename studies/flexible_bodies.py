@@ -27,6 +27,7 @@ import numpy as np
 from exudyn_study.bodies import BodySpec, fe_model_and_interfaces, flexible_body
 from exudyn_study.bodies.reduction import patched_full_model_frequencies
 from exudyn_study.infra.atomic import write_text_atomic
+from exudyn_study.infra.progress import StageProgress
 
 
 def main(argv=None) -> int:
@@ -42,13 +43,17 @@ def main(argv=None) -> int:
     results = {}
     for joint_model in ("simple", "detailed"):
         spec = BodySpec(joint_model=joint_model, mesh_size=mesh)
+        print(f"{spec.name}: the reduced body (from the cache, or built) ...", flush=True)
         data = flexible_body(spec)
         print(f"{spec.name}: reduced body {'from cache' if data.from_cache else 'built'} "
               f"({data.timings_s['total']:.1f} s); solving the full FE model with patches ...", flush=True)
         t0 = time.perf_counter()
-        fe_model, interfaces = fe_model_and_interfaces(spec)
-        n_full = int(np.sum(data.body.frequencies_hz < 120.0)) + 2
-        full = patched_full_model_frequencies(fe_model, interfaces, n_modes=n_full)
+        with StageProgress(f"full FE model {spec.name}", ["mesh and assembly", "eigenvalues"]) as progress:
+            progress.stage("mesh and assembly")
+            fe_model, interfaces = fe_model_and_interfaces(spec)
+            n_full = int(np.sum(data.body.frequencies_hz < 120.0)) + 2
+            progress.stage("eigenvalues")
+            full = patched_full_model_frequencies(fe_model, interfaces, n_modes=n_full)
         print(f"  full model: {fe_model.n_dof} DOF, {n_full} modes in {time.perf_counter() - t0:.1f} s",
               flush=True)
         results[joint_model] = {

@@ -24,12 +24,20 @@ N_MODES = 10
 
 def modes_of(variant: int, damping: str, mesh: str, bushing=None, max_frequency_hz: float = 150.0):
     """(model, system modes) of a variant: built, assembled and linearised."""
+    from exudyn_study.infra.progress import StageProgress
     from exudyn_study.model import build_model
     from exudyn_study.model.linearisation import linearise, system_modes
 
-    model = build_model(variant, damping=damping, mesh_size=mesh, bushing=bushing, exudyn_mesh="used")
-    model.assemble()
-    modes = system_modes(model, linearise(model), max_frequency_hz=max_frequency_hz, n_modes=N_MODES)
+    what = f"Model {variant}" + ("" if bushing is None else " with bushings")
+    with StageProgress(what, ["bodies", "assembly", "linearisation", "system modes"]) as progress:
+        progress.stage("bodies")  # from the cache, or built (a bar of its own)
+        model = build_model(variant, damping=damping, mesh_size=mesh, bushing=bushing, exudyn_mesh="used")
+        progress.stage("assembly")
+        model.assemble()
+        progress.stage("linearisation")
+        system = linearise(model)
+        progress.stage("system modes")
+        modes = system_modes(model, system, max_frequency_hz=max_frequency_hz, n_modes=N_MODES)
     return model, modes
 
 
@@ -92,6 +100,8 @@ def run(variant: int, argv=None, title: str | None = None) -> tuple:
     out = Path(args.out)
     out.mkdir(parents=True, exist_ok=True)
     t0 = time.perf_counter()
+    print(f"Model {variant} ({args.mesh} mesh, damping {args.damping}): bodies, assembly, linearisation, "
+          f"first {N_MODES} system modes", flush=True)
     model, modes = modes_of(variant, args.damping, args.mesh)
     title = title or (f"Model {variant} ({args.mesh} mesh, damping {args.damping}): "
                       f"first {N_MODES} system modes")

@@ -18,14 +18,12 @@ import argparse
 import dataclasses
 from pathlib import Path
 
-from exudyn_study.sweep import get_task, load_config, parse_config, run_sweep
-from exudyn_study.sweep.engine import summary_table
-from exudyn_study.sweep.plots import save_sweep_plot
-
 HERE = Path(__file__).resolve().parent
 
 
 def sensitivity_config(duration_s: float):
+    from exudyn_study.sweep import parse_config
+
     return parse_config(
         {
             "study": {
@@ -46,6 +44,11 @@ def main(argv=None) -> None:
     parser.add_argument("--quick", action="store_true", help="20 s drives (smoke test)")
     args = parser.parse_args(argv)
     out = Path(args.out)
+    print(f"sweep_damping: damping x signal, then the calibrated damping x 0.25-4, into {out}", flush=True)
+    from exudyn_study.sweep import get_task, load_config, run_sweep
+    from exudyn_study.sweep.engine import summary_table
+    from exudyn_study.sweep.plots import save_sweep_plot
+
     comparison = load_config(HERE / "sweep_damping.toml")
     duration = 20.0 if args.quick else comparison.settings["duration_s"]
     if args.quick:

@@ -65,3 +65,35 @@ def test_one_name_per_concept():
                      for a in sub.choices[name]._actions)] + ["sweep"]
     for name in cached:  # every subcommand that builds flexible bodies takes --cache-dir
         assert any("--cache-dir" in a.option_strings for a in sub.choices[name]._actions), name
+
+
+def _shown_options(name):
+    """(action, its help as --help renders it) of every listed option of subcommand ``name``."""
+    import argparse
+
+    from exudyn_study.cli import build_parser
+
+    sub = next(a for a in build_parser()._actions if isinstance(a, argparse._SubParsersAction))
+    parser = sub.choices[name]
+    formatter = parser._get_formatter()
+    return [(a, " ".join(formatter._expand_help(a).split())) for a in parser._actions
+            if a.option_strings and a.help != argparse.SUPPRESS and not isinstance(a, argparse._HelpAction)]
+
+
+@pytest.mark.parametrize("command", sorted(__import__("exudyn_study.cli").cli.SUBCOMMANDS))
+def test_help_of_every_subcommand_states_each_default_once(command, capsys):
+    """Every option that takes a value and is not required says in --help what holds when it is not
+    given, and not twice in brackets; the rendered --help contains those texts."""
+    import re
+
+    from exudyn_study.cli import main
+
+    with pytest.raises(SystemExit):
+        main([command, "--help"])
+    page = "".join(capsys.readouterr().out.split())  # argparse wraps lines, also at hyphens
+    for action, text in _shown_options(command):
+        if action.nargs == 0 or action.required:
+            continue
+        words = re.findall(r"(?<![-\w])default(?![-\w])", text.lower())  # not 'adams-default'
+        assert words and text.lower().count("(default") <= 1, (command, action.option_strings, text)
+        assert "".join(text.split()) in page, (command, action.option_strings)

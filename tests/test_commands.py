@@ -39,10 +39,15 @@ def test_help_lists_the_subcommands(capsys):
         assert name in text
 
 
-def test_demo_identification_part_runs(tmp_path):
-    """The demo without its FE step: recording written, modes identified, figures drawn."""
+def test_demo_identification_part_runs(tmp_path, capsys):
+    """The demo without its FE step: recording written, modes identified, figures drawn; its steps
+    counted [1/2], [2/2] (each announced before it runs)."""
+    import re
+
     code = main(["demo", "--skip-fe", "--out", str(tmp_path)])
     assert code == 0
+    steps = re.findall(r"^\[(\d+)/(\d+)\] ", capsys.readouterr().out, flags=re.M)
+    assert steps == [("1", "2"), ("2", "2")]
     modes = json.loads((tmp_path / "modes.json").read_text())["modes"]
     # ten Table-1 modes in 3-50 Hz (see the identification issue for the accuracy figures)
     assert 9 <= len(modes) <= 11

@@ -24,6 +24,8 @@ import re
 import sys
 import warnings
 
+from tqdm import tqdm
+
 from exudyn_study.cli.options import HelpFormatter, add_verbosity
 from exudyn_study.errors import InputError, StudyError
 
@@ -95,12 +97,12 @@ class _WarningPrinter(logging.Handler):
     def show(self, message: str) -> None:
         text = " ".join(str(message).split())
         self.counts[text] = self.counts.get(text, 0) + 1
-        if self.counts[text] == 1:
-            print(f"warning: {text}", file=self.stream)
+        if self.counts[text] == 1:  # above any active progress bar, which is redrawn below it
+            tqdm.write(f"warning: {text}", file=self.stream)
 
     def emit(self, record: logging.LogRecord) -> None:
         if record.levelno >= logging.ERROR:
-            print(f"error: {' '.join(record.getMessage().split())}", file=self.stream)
+            tqdm.write(f"error: {' '.join(record.getMessage().split())}", file=self.stream)
         else:
             self.show(record.getMessage())
 
@@ -135,8 +137,9 @@ def main(argv: list[str] | None = None) -> int:
     info.addFilter(lambda record: record.levelno < logging.WARNING)
     root.handlers = [printer] + ([info] if args.verbose else [])
     root.setLevel(logging.INFO if args.verbose else logging.WARNING)
-    if args.quiet:
-        os.environ["TQDM_DISABLE"] = "1"
+    saved_env = {k: os.environ.get(k) for k in ("TQDM_DISABLE", "EXUDYN_STUDY_PROGRESS")}
+    if args.quiet:  # every bar off: tqdm's own and the stage and status bars of exudyn_study.infra.progress
+        os.environ.update(TQDM_DISABLE="1", EXUDYN_STUDY_PROGRESS="0")
     try:
         with warnings.catch_warnings():
             warnings.simplefilter("always", UserWarning)
@@ -155,6 +158,11 @@ def main(argv: list[str] | None = None) -> int:
     finally:
         printer.close_run()
         root.handlers, root.level = saved[1], saved[0]
+        for key, value in saved_env.items():
+            if value is None:
+                os.environ.pop(key, None)
+            else:
+                os.environ[key] = value
 
 
 def _one_line(exc: BaseException) -> str:

@@ -66,7 +66,7 @@ def configure(parser: argparse.ArgumentParser) -> None:
     parser.add_argument("--target", required=True, metavar="MODES.json", help="identified modes (modes JSON)")
     parser.add_argument("--json", required=True, metavar="OUT", help="calibration result (JSON)")
     parser.add_argument("--plot", metavar="IMAGE", help="chosen damping vs body mode frequency (Figure 18; "
-                        ".png/.pdf/.svg)")
+                        ".png/.pdf/.svg; default: no plot)")
     parser.add_argument("--max-frequency", type=MAX_FREQUENCY, default=500.0, metavar="HZ",
                         help="body modes up to this frequency are design variables (--design per-mode)")
     add_hidden_alias(parser, "--cutoff-hz", "max_frequency", type=MAX_FREQUENCY)

@@ -46,7 +46,7 @@ def configure(parser: argparse.ArgumentParser) -> None:
                         "higher-rate recording is resampled, anti-aliased)")
     parser.add_argument("--json", required=True, metavar="OUT", help="JSON result file")
     parser.add_argument("--plot", metavar="IMAGE", default=None,
-                        help="also write a bar plot (.png/.pdf/.svg)")
+                        help="also write a bar plot (.png/.pdf/.svg; default: no plot)")
 
 
 def run(args: argparse.Namespace) -> int:

@@ -65,13 +65,15 @@ def _demo(args: argparse.Namespace, out: Path, shown: Path) -> None:
     from exudyn_study.recording.io import read_recording, write_recording
 
     summary = {}
+    step = _Steps(2 + (not args.skip_fe) + 2 * bool(args.virtual_rig))
     if not args.skip_fe:
         from exudyn_study.bodies.spec import BodySpec, flexible_body
 
+        print(f"{step()} chassis flexible body (Model 1): FE and Craig-Bampton reduction, or the cache")
         data = flexible_body(BodySpec(joint_model="simple", mesh_size=args.mesh), cache_dir=args.cache_dir)
         body = data.body
         print(
-            f"[1/3] chassis flexible body (Model 1): {3 * body.n_nodes} DOF, {body.total_mass_kg:.1f} kg, "
+            f"      {3 * body.n_nodes} DOF, {body.total_mass_kg:.1f} kg, "
             f"{body.n_modes} flexible modes, {'from cache' if data.from_cache else 'built'} "
             f"in {data.timings_s['total']:.1f} s"
         )
@@ -85,6 +87,7 @@ def _demo(args: argparse.Namespace, out: Path, shown: Path) -> None:
             "mounted_frequencies_hz": body.fixed_interface_frequencies_hz[:10].tolist(),
             "free_free_frequencies_hz": body.frequencies_hz[:10].tolist(),
         }
+    print(f"{step()} synthetic white-noise test: the thesis's Table-1 modes at the Appendix-A sensors, 80 s")
     system = table1_system(seed=args.seed)
     reference, responses = simulate(system, 80.0, seed=args.seed)
     recording = to_recording(
@@ -93,15 +96,16 @@ def _demo(args: argparse.Namespace, out: Path, shown: Path) -> None:
     rec_path = out / "test_white_noise.h5"
     write_recording(recording, rec_path)
     print(
-        f"[2/3] synthetic white-noise test written to {shown / rec_path.name} "
+        f"      written to {shown / rec_path.name} "
         f"({len(recording.channels)} channels, {recording.duration_s:.0f} s)"
     )
+    print(f"{step()} identification of that recording (Hv, 0.2 Hz, PolyMAX, LSFD) and its figures")
     result = identify_recording(
         read_recording(rec_path), "ARFVZ", band_hz=(3.0, 50.0), resolution_hz=0.2, estimator="Hv"
     )
     write_modes_json(result.model, out / "modes.json")
-    figures = plot_all(result, out / "figures")
-    print(f"[3/3] identified {len(result.model.modes)} modes (Hv, 0.2 Hz) -> {shown / 'modes.json'}")
+    figures = plot_all(result, out / "figures", **_sensor_layout(recording))
+    print(f"      identified {len(result.model.modes)} modes -> {shown / 'modes.json'}")
     print("      mode  f [Hz]   zeta [%]   true f [Hz]  true zeta [%]")
     for i, mode in enumerate(result.model.modes):
         j = min(
@@ -114,12 +118,33 @@ def _demo(args: argparse.Namespace, out: Path, shown: Path) -> None:
     print(f"      figures: {', '.join(str(shown / p.relative_to(out)) for p in figures)}")
     summary["identified_modes"] = len(result.model.modes)
     if args.virtual_rig:
-        summary["virtual_rig"] = _virtual_rig(out / "virtual_rig", shown / "virtual_rig", args.cache_dir)
+        summary["virtual_rig"] = _virtual_rig(
+            out / "virtual_rig", shown / "virtual_rig", step, args.cache_dir
+        )
     (out / "demo_summary.json").write_text(json.dumps(summary, indent=1), encoding="utf-8")
 
 
-def _virtual_rig(out: Path, shown: Path, cache_dir=None) -> dict:
+def _sensor_layout(recording) -> dict:
+    """Sensor positions (m) and directions of a recording, for the mode-shape figure."""
+    chans = [c for c in recording.channels if c.position_m is not None]
+    return {"positions_m": {c.name: c.position_m for c in chans},
+            "directions": {c.name: c.direction for c in chans}}
+
+
+class _Steps:
+    """The demo's step counter: each call returns the next ``[k/N]``."""
+
+    def __init__(self, total: int):
+        self.total, self.done = total, 0
+
+    def __call__(self) -> str:
+        self.done += 1
+        return f"[{self.done}/{self.total}]"
+
+
+def _virtual_rig(out: Path, shown: Path, step: _Steps, cache_dir=None) -> dict:
     """Play the thesis scenario on the virtual rig, identify its white-noise recording, diagnose Model 3."""
+    import dataclasses
     import time
 
     from exudyn_study.diagnose.report import write_report
@@ -132,10 +157,12 @@ def _virtual_rig(out: Path, shown: Path, cache_dir=None) -> dict:
     from exudyn_study.virtual_rig.thesis import EMA_REFERENCES, average_identifications, compare_table1
 
     out.mkdir(parents=True, exist_ok=True)
+    print(f"{step()} virtual rig, scenario 'thesis' (white noise, test, test at 50 %), then EMA of its "
+          "white-noise recording")
     t0 = time.perf_counter()
     paths = run_virtual_test("thesis", ["white-noise", "test", "test-50"], out, cache_dir=cache_dir)
     print(
-        f"[4/5] virtual rig, scenario 'thesis': {', '.join(p.name for p in paths)} in "
+        f"      recordings {', '.join(p.name for p in paths)} in "
         f"{time.perf_counter() - t0:.0f} s (the truth is in thesis_truth.json; nothing else reads it)"
     )
     # the thesis's procedure (Section 5.1): one identification per reference, the modes both found averaged
@@ -148,7 +175,7 @@ def _virtual_rig(out: Path, shown: Path, cache_dir=None) -> dict:
         )
         write_modes_json(res.model, out / f"thesis_modes_{reference}.json")
         if not runs:
-            plot_all(res, out / "figures")
+            plot_all(res, out / "figures", **_sensor_layout(recording))
         runs.append([m.to_dict() for m in res.model.modes])
     modes = average_identifications(runs)
     rows = compare_table1([m["frequency_hz"] for m in modes], [m["damping_ratio"] for m in modes])
@@ -175,12 +202,18 @@ def _virtual_rig(out: Path, shown: Path, cache_dir=None) -> dict:
             + ", ".join(f"{modes[i]['frequency_hz']:.2f} Hz" for i in extra)
         )
     figures: dict = {}
-    diagnosis = diagnose_rig(3, [paths[0], paths[2]], [paths[1]], damping="table6", figures=figures,
+    print(f"{step()} diagnosis of Model 3 (Table 6 damping) against the recordings")
+    # named by where they end up (the files are staged until the demo ends)
+    named = [
+        dataclasses.replace(r, metadata={**r.metadata, "name": str(shown / p.name)})
+        for p, r in ((p, read_recording(p)) for p in paths)
+    ]
+    diagnosis = diagnose_rig(3, [named[0], named[2]], [named[1]], damping="table6", figures=figures,
                              cache_dir=cache_dir)
     diagnosis.write_json(out / "diagnosis.json")
     write_report(diagnosis, out / "diagnosis_report", figures)
     print(
-        f"[5/5] diagnosis of Model 3 (Table 6 damping) against the recordings: {diagnosis.summary} -> "
+        f"      {diagnosis.summary} -> "
         f"{shown / 'diagnosis_report' / 'index.html'}"
     )
     return {

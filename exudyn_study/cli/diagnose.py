@@ -26,10 +26,9 @@ from __future__ import annotations
 
 import argparse
 import inspect
-import sys
 from pathlib import Path
 
-from exudyn_study.cli.options import Bounded, add_cache_dir
+from exudyn_study.cli.options import Bounded, add_cache_dir, add_hidden_alias
 from exudyn_study.errors import InputError
 
 __all__ = ["configure", "run"]
@@ -60,11 +59,12 @@ def configure(parser: argparse.ArgumentParser) -> None:
         nargs="+",
         default=[],
         metavar="REC",
-        help="held-out recordings (other level or signal), never used for fitting",
+        help="held-out recordings (other level or signal), never used for fitting (default: none)",
     )
     parser.add_argument("--json", required=True, metavar="OUT", help="diagnosis JSON to write")
     parser.add_argument("--report", metavar="DIR",
-                        help="also write an HTML report with figures into DIR (created when missing)")
+                        help="also write an HTML report with figures into DIR (created when missing; "
+                             "default: no report)")
     parser.add_argument(
         "--interface",
         action="append",
@@ -96,8 +96,8 @@ def configure(parser: argparse.ArgumentParser) -> None:
                         help="levels: the record holds N multisine realisations one after the other, each of "
                         "whole periods (default 1)")
     parser.add_argument("--excitation", choices=("auto", "periodic", "random"), default="auto",
-                        help="levels: FRF estimate for a periodic (multisine) or random drive (default auto)")
-    parser.add_argument("--no-progress", action="store_true", help="no progress bars or stage lines (stderr)")
+                        help="levels: FRF estimate for a periodic (multisine) or random drive")
+    add_hidden_alias(parser, "--no-progress", "quiet", action="store_true")  # the one name is --quiet
 
 
 def _parse_model(text: str):
@@ -167,14 +167,15 @@ def run(args: argparse.Namespace) -> int:
     print(f"diagnosis: {diagnosis.summary} -> {args.json}")
     for f in diagnosis.findings:
         print(
-            f"  {f.physics} at {f.location.get('interface') or ', '.join(f.location['sensors'])}: "
-            "held-out error "
-            f"{f.fit['holdout_before']:.3g} -> {f.fit['holdout_after']:.3g}"
+            f"  {f.physics} at {f.place}{'' if f.identifiable else ' (not identifiable, not a finding)'}: "
+            f"held-out error {f.fit['holdout_before']:.3g} -> {f.fit['holdout_after']:.3g}"
         )
     return 0
 
 
 def _diagnose(args: argparse.Namespace, variant, ref_path, interfaces):
+    from exudyn_study.infra.progress import write_line
+
     quiet = _quiet(args)
     train = _read(args.train, "--train")
     holdout = _read(args.holdout, "--holdout")
@@ -188,7 +189,7 @@ def _diagnose(args: argparse.Namespace, variant, ref_path, interfaces):
         from exudyn_study.infra.cache import cache_dir
 
         cache_dir(args.cache_dir)
-        kwargs = {"progress": None if quiet else (lambda msg: print(msg, file=sys.stderr)),
+        kwargs = {"progress": None if quiet else write_line,
                   "cache_dir": args.cache_dir}
         if "figures" in inspect.signature(rig.diagnose_rig).parameters:
             kwargs["figures"] = figures
@@ -212,7 +213,7 @@ def _diagnose(args: argparse.Namespace, variant, ref_path, interfaces):
         interfaces,
         settings=settings,
         labels=labels,
-        progress=None if _quiet(args) else (lambda msg: print(msg, file=sys.stderr)),
+        progress=None if _quiet(args) else write_line,
         figures=figures,
         drive_point=args.drive_point,
     )
@@ -220,8 +221,8 @@ def _diagnose(args: argparse.Namespace, variant, ref_path, interfaces):
 
 
 def _quiet(args: argparse.Namespace) -> bool:
-    """Return True when progress lines and bars are off (``--quiet`` or ``--no-progress``)."""
-    return bool(getattr(args, "quiet", False) or getattr(args, "no_progress", False))
+    """Return True when progress lines and bars are off (``--quiet``)."""
+    return bool(getattr(args, "quiet", False))
 
 
 def _run_levels(args, interfaces, json_path, report) -> int:

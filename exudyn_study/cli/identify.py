@@ -57,13 +57,14 @@ def configure(parser: argparse.ArgumentParser) -> None:
     parser.add_argument("--max-order", type=MAX_ORDER, default=60, metavar="N",
                         help="highest model order of the stabilisation diagram")
     parser.add_argument("--pin", type=FREQUENCY, nargs="+", default=(), metavar="HZ",
-                        help="force modes near these frequencies into the selection")
+                        help="force modes near these frequencies into the selection (default: none)")
     parser.add_argument("--drop", type=FREQUENCY, nargs="+", default=(), metavar="HZ",
-                        help="drop selected modes near these frequencies")
+                        help="drop selected modes near these frequencies (default: none)")
     parser.add_argument("--no-leakage-correction", action="store_true",
                         help="fit plain pole terms (no model of the Welch window smoothing)")
     parser.add_argument("--json", required=True, metavar="OUT", help="modes JSON to write")
-    parser.add_argument("--plots", metavar="DIR", help="write figures (PNG) into DIR (created when missing)")
+    parser.add_argument("--plots", metavar="DIR",
+                        help="write figures (PNG) into DIR (created when missing; default: no figures)")
 
 
 def run(args: argparse.Namespace) -> int:

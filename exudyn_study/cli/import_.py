@@ -45,14 +45,16 @@ def configure(parser: argparse.ArgumentParser) -> None:
         help="NAME=COLUMN:QUANTITY:UNIT[:DIRECTION[:ROLE]] (COLUMN: header or 0-based "
         "index; ROLE 'drive' for the excitation), once per channel",
     )
-    parser.add_argument("--rate", type=float, metavar="HZ", help="sampling rate in Hz (or --time-column)")
-    parser.add_argument("--time-column", metavar="COLUMN", help="column of the sample times in s")
+    parser.add_argument("--rate", type=float, metavar="HZ",
+                        help="sampling rate in Hz (default: none; give it or --time-column)")
+    parser.add_argument("--time-column", metavar="COLUMN",
+                        help="column of the sample times in s (default: none; give it or --rate)")
     parser.add_argument(
         "--position",
         action="append",
         default=[],
         metavar="NAME=X,Y,Z",
-        help="a channel's position in m (the drive-point accelerometer at the force's)",
+        help="a channel's position in m (the drive-point accelerometer at the force's; default: none)",
     )
     parser.add_argument("--delimiter", metavar="SEP", help="column separator (default from the suffix)")
     parser.add_argument("--out", required=True, metavar="OUT", help="recording to write (.h5 or .uff)")

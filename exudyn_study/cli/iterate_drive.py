@@ -56,7 +56,8 @@ def configure(parser: argparse.ArgumentParser) -> None:
     add_damping(parser, DAMPINGS, help_text="damping function (suggested: Table 6 for model 3, a "
                 "calibration for models 1/2)")
     parser.add_argument("--calibration", metavar="FILE", default=None,
-                        help="calibration JSON (exudyn-study calibrate) for --damping suggested")
+                        help="calibration JSON (exudyn-study calibrate) for --damping suggested "
+                             "(default: none)")
     parser.add_argument("--measured", required=True, metavar="REC", help="measured recording (.h5 or .uff)")
     parser.add_argument("--control", nargs="+", default=["ARFVZ", "ARFHZ"], metavar="NAME",
                         help="control channels")
@@ -73,7 +74,8 @@ def configure(parser: argparse.ArgumentParser) -> None:
     add_cache_dir(parser)
     parser.add_argument("--out", required=True, metavar="REC_OUT",
                         help="simulated recording with the final drive (.h5 or .uff)")
-    parser.add_argument("--json", default=None, metavar="OUT", help="iteration report (JSON)")
+    parser.add_argument("--json", default=None, metavar="OUT",
+                        help="iteration report (JSON; default: not written)")
 
 
 def _check(args) -> int:

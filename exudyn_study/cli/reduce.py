@@ -30,7 +30,7 @@ def configure(parser: argparse.ArgumentParser) -> None:
     parser.add_argument("--no-cache", action="store_true", help="rebuild and do not touch the cache")
     add_cache_dir(parser)
     parser.add_argument("--json", default=None, metavar="OUT",
-                        help="write frequencies and timings to this JSON file")
+                        help="write frequencies and timings to this JSON file (default: not written)")
 
 
 def run(args: argparse.Namespace) -> int:

@@ -17,7 +17,7 @@ import os
 import sys
 from pathlib import Path
 
-from exudyn_study.cli.options import Bounded
+from exudyn_study.cli.options import Bounded, add_hidden_alias
 from exudyn_study.errors import InputError
 
 __all__ = ["configure", "run"]
@@ -46,9 +46,10 @@ def configure(parser: argparse.ArgumentParser) -> None:
     parser.add_argument("--resume", action="store_true", help="run only the points missing from --out")
     parser.add_argument("--retry-failed", action="store_true", help="with --resume, rerun failed points too")
     parser.add_argument("--dry-run", action="store_true", help="validate and list the points, run nothing")
-    parser.add_argument("--plot-x", metavar="PARAM", help="swept parameter on the plot's x axis")
+    parser.add_argument("--plot-x", metavar="PARAM",
+                        help="swept parameter on the plot's x axis (default: the first swept numeric one)")
     parser.add_argument("--no-plot", action="store_true", help="skip sweep.png")
-    parser.add_argument("--no-progress", action="store_true", help="no progress bar")
+    add_hidden_alias(parser, "--no-progress", "quiet", action="store_true")  # the one name is --quiet
 
 
 def run(args: argparse.Namespace) -> int:
@@ -92,7 +93,7 @@ def run(args: argparse.Namespace) -> int:
         try:
             result = run_sweep(config, out, scheduler=args.scheduler,
                                workers=None if args.scheduler else args.workers, resume=args.resume,
-                               retry_failed=args.retry_failed, progress=not (args.no_progress or args.quiet))
+                               retry_failed=args.retry_failed, progress=not args.quiet)
         except KeyboardInterrupt:
             print(f"exudyn-study sweep: interrupted; finished points are kept in {out}; "
                   "rerun with --resume to complete", file=sys.stderr)

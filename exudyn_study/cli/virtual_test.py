@@ -30,10 +30,11 @@ def configure(parser: argparse.ArgumentParser) -> None:
                         help="drive amplitude factor(s) relative to the scenario's")
     parser.add_argument("--duration", type=DURATION, default=None, metavar="S",
                         help="duration in s (default 120 s white noise, 60 s test signals)")
-    add_seed(parser, None, "override the scenario's seed")
+    add_seed(parser, None, "override the scenario's seed (default: the scenario's own)")
     add_cache_dir(parser)
     parser.add_argument("--out", default=None, metavar="DIR",
-                        help="output directory (created when missing)")
+                        help="output directory (created when missing; default: none, required unless "
+                             "--scenario list)")
 
 
 def run(args: argparse.Namespace) -> int:

@@ -87,6 +87,7 @@ from scipy.interpolate import CubicSpline
 
 from exudyn_study.diagnose.schema import Diagnosis, Finding
 from exudyn_study.errors import InputError
+from exudyn_study.infra.progress import StatusProgress
 from exudyn_study.recording.types import Recording
 
 __all__ = [
@@ -1543,9 +1544,22 @@ def diagnose_generic(
     InputError
         See :func:`check_recordings`; also a reference without resonances in the excited band.
     """
+    with StatusProgress("diagnosis (generic path)") as status:
+
+        def say(text: str) -> None:
+            log.info(text)
+            status(text)
+            if progress is not None:
+                progress(text)
+
+        return _diagnose_generic(reference, train, holdout, interfaces, settings, labels, say, figures,
+                                 drive_point)
+
+
+def _diagnose_generic(reference, train, holdout, interfaces, settings, labels, say, figures, drive_point):
+    """Run the stages of :func:`diagnose_generic`, reporting with ``say(text)``."""
     t_start = time.perf_counter()
     settings = settings or GenericSettings()
-    say = progress or (lambda msg: log.info(msg))
     train, holdout = list(train or ()), list(holdout or ())
     layout, names, itfs = check_recordings(reference, train, holdout, interfaces)
     declared = interfaces is not None

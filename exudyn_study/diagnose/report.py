@@ -31,7 +31,7 @@ from pathlib import Path
 
 import numpy as np
 
-from exudyn_study.diagnose.schema import Diagnosis
+from exudyn_study.diagnose.schema import NOT_IDENTIFIABLE, Diagnosis
 from exudyn_study.errors import InputError
 
 __all__ = ["write_report"]
@@ -69,7 +69,8 @@ def _residual_map(data: Mapping, path: Path) -> Path | None:
             seen.add(labels[i])
             keep.append(int(i))
     n = len(keep)
-    fig = _figure(9.0, 1.1 + 1.0 * n * max(1, len(chans)) / 5)
+    height_in = 1.1 + 0.16 * n * max(1, len(chans))  # a 7-pt label per channel row
+    fig = _figure(9.0, height_in)
     axes = fig.subplots(n, 1, sharex=True, squeeze=False)[:, 0]
     z = np.log10(np.maximum(rmap[keep], 1e-3))
     vmax = max(2.0, float(np.nanpercentile(z, 99.5)))
@@ -98,7 +99,9 @@ def _residual_map(data: Mapping, path: Path) -> Path | None:
     axes[0].set_title(
         "residual vs nominal model: log10(|T_model - T|^2 / sigma^2)  (0: at the noise level)", fontsize=9
     )
-    fig.colorbar(im, ax=list(axes), shrink=0.8, label="log10 residual / noise")
+    # a colour bar about 4 in tall, not the whole stack of recordings
+    fig.colorbar(im, ax=list(axes), shrink=min(0.8, 4.0 / height_in), aspect=15,
+                 label="log10 residual / noise")
     return _save(fig, path)
 
 
@@ -310,8 +313,6 @@ details{margin:.4em 0}summary{cursor:pointer;color:#2a6fb0}
 pre{font-size:11px;max-height:500px;overflow:auto;background:#f6f6f6;padding:6px}
 """
 
-#: a flag containing this text marks a finding whose parameters the data do not determine
-NOT_IDENTIFIABLE = "not identifiable"
 
 
 class _Html(str):
@@ -359,7 +360,7 @@ def _fmt(v) -> str:
 
 
 def _not_identifiable(f) -> bool:
-    return any(NOT_IDENTIFIABLE in t.lower() for t in f.flags)
+    return not f.identifiable
 
 
 def _where(loc) -> str:
@@ -397,7 +398,8 @@ def _param_text(name: str, p: Mapping) -> str:
     unit = "" if p["unit"] in ("", "1", "-") else f" {p['unit']}"
     txt = f"{name} = {_fmt(p['value'])}{unit}"
     if p.get("std") is not None and p["value"]:
-        txt += f" (±{abs(p['std'] / p['value']):.0%})"
+        pct = 100 * abs(p["std"] / p["value"])  # 0.3 % stays 0.3 %, not 0 %
+        txt += f" (±{pct:.1f}%)" if pct < 10 else f" (±{pct:.0f}%)"
     if p.get("at_bound"):
         txt += " [at bound]"
     return txt
@@ -554,7 +556,7 @@ def _summary(diagnosis: Diagnosis, found: list, weak: list, groups: list) -> lis
                 + html.escape(", ".join(_fmt(v) for v in vals))
                 + "</p>"
             )
-    if diagnosis.unexplained:
+    if diagnosis.unexplained:  # where and which band here; the explanation once, in its own section
         out.append("<h3>Unexplained mismatch</h3>")
         out.append(
             _table(
@@ -563,11 +565,11 @@ def _summary(diagnosis: Diagnosis, found: list, weak: list, groups: list) -> lis
                         _where(u["location"]),
                         _band(u.get("band_hz")),
                         "yes" if u.get("level_dependent") else "no",
-                        u.get("explanation", ""),
+                        _Html("<a href='#unexplained'>below</a>"),
                     )
                     for u in diagnosis.unexplained
                 ],
-                ("where", "band", "level dependent", "explanation"),
+                ("where", "band", "level dependent", "why"),
             )
         )
     return out
@@ -657,7 +659,7 @@ def write_report(
         "<meta name='viewport' content='width=device-width, initial-scale=1'>"
         f"<title>exudyn_study diagnosis</title><style>{_CSS}</style></head><body>",
         "<h1>Diagnosis</h1>",
-        f"<p class='lead'><b>{html.escape(_headline(diagnosis, found))}</b></p>",
+        f"<p class='lead'><b>{html.escape(diagnosis.summary)}</b></p>",
     ]
     parts += _summary(diagnosis, found, weak, groups)
     if found:
@@ -670,13 +672,15 @@ def write_report(
             "parameters; the values below are not evidence of the physics.</p>"
         )
         parts += [_finding_card(f, fit_no, len(groups), weak=True) for f in weak]
+    if diagnosis.unexplained:
+        parts.append(f"<h2 id='unexplained'>Unexplained mismatch ({len(diagnosis.unexplained)})</h2>")
+    for u in diagnosis.unexplained:
+        parts.append("<div class='card unexplained'>")
+        parts.append(_facts(u["location"], u.get("band_hz"), bool(u.get("level_dependent"))))
+        parts.append(f"<p>{html.escape(u.get('explanation', ''))}</p></div>")
     if groups:
         parts.append("<h2 id='fits'>Error before and after</h2>")
         parts += [_fit_section(fit, members, i, len(groups)) for i, (fit, members) in enumerate(groups, 1)]
-    for u in diagnosis.unexplained:
-        parts.append("<div class='card unexplained'><h3>Unexplained mismatch</h3>")
-        parts.append(_facts(u["location"], u.get("band_hz"), bool(u.get("level_dependent"))))
-        parts.append(f"<p>{html.escape(u.get('explanation', ''))}</p></div>")
     titles = {
         "residual_map.png": "Residual of the nominal model per sensor and frequency",
         "frf_overlay.png": "Measured, nominal and fitted response at the located sensors",
@@ -724,13 +728,3 @@ def write_report(
     from exudyn_study.infra.atomic import write_text_atomic
 
     return write_text_atomic(out / "index.html", "\n".join(parts), "report")
-
-
-def _headline(diagnosis: Diagnosis, found: list) -> str:
-    """One line: the findings (not-identifiable ones left out) and the count of unexplained mismatch."""
-    if not diagnosis.mismatch_found:
-        return "no missing physics found"
-    parts = [f"{f.physics} at {_where(f.location)}" for f in found]
-    if diagnosis.unexplained:
-        parts.append(f"{len(diagnosis.unexplained)} unexplained mismatch(es)")
-    return "; ".join(parts) or "mismatch found, not explained"

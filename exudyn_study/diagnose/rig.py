@@ -84,6 +84,7 @@ from exudyn_study.diagnose.rig_state import (
 from exudyn_study.diagnose.schema import Diagnosis
 from exudyn_study.errors import InputError
 from exudyn_study.infra.blas import one_blas_thread
+from exudyn_study.infra.progress import StatusProgress
 
 __all__ = ["diagnose_rig", "RigDiagnosisSettings", "register_rig_candidate", "unregister_rig_candidate"]
 
@@ -498,7 +499,21 @@ def diagnose_rig(
         channels the model lacks.
     """
     st = settings or RigDiagnosisSettings()
-    say = progress or (lambda text: log.info(text))
+    with StatusProgress(f"diagnosis of Model {variant}") as status:
+
+        def say(text: str) -> None:
+            log.info(text)
+            status(text)
+            if progress is not None:
+                progress(text)
+
+        return _diagnose_rig(
+            variant, train, holdout, damping, say, bodies, sensors, candidates, st, cache_dir, figures
+        )
+
+
+def _diagnose_rig(variant, train, holdout, damping, say, bodies, sensors, candidates, st, cache_dir, figures):
+    """Run the stages of :func:`diagnose_rig`, reporting with ``say(text)``."""
     t_start = time.perf_counter()
     problem, state = _problem(
         variant, train, holdout, damping, say, bodies, sensors, candidates, st, cache_dir, t_start

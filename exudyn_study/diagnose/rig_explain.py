@@ -15,7 +15,7 @@ import numpy as np
 from exudyn_study.diagnose.rig_candidates import RIG_CANDIDATES, ExplainContext, sensor_component
 from exudyn_study.diagnose.rig_compare import BANDS_HZ, drive_spectra
 from exudyn_study.diagnose.rig_hypotheses import Hypothesis, apply_output_frf
-from exudyn_study.diagnose.schema import Finding
+from exudyn_study.diagnose.schema import NOT_IDENTIFIABLE, Finding
 
 
 def recording_label(name) -> str:
@@ -68,7 +68,10 @@ def make_finding(
     Returns
     -------
     Finding
-        The finding, with a flag per parameter at its bound.
+        The finding, with a flag per parameter at its bound, one naming the parameters whose
+        standard deviation exceeds their magnitude, and a
+        :data:`~exudyn_study.diagnose.schema.NOT_IDENTIFIABLE`
+        flag when that holds for all of them (the data determine none).
     """
     params = {
         n: {"value": float(v), "unit": u, "std": float(s_), "at_bound": bool(b)}
@@ -79,6 +82,14 @@ def make_finding(
         for n, v in params.items()
         if v["at_bound"]
     ]
+    loose = [n for n, v in params.items() if not v["at_bound"] and not _determined(v)]
+    if params and not any(_determined(v) and not v["at_bound"] for v in params.values()):
+        bound.insert(0, f"{NOT_IDENTIFIABLE}: the data determine none of its parameters "
+                        "(each at a bound or with a standard deviation larger than its value)")
+        explanation = f"Not identifiable, not a finding: the values below are not determined. {explanation}"
+    elif loose:
+        bound.append("the data do not determine " + ", ".join(
+            f"{n} ({params[n]['value']:.3g} +- {params[n]['std']:.2g} {params[n]['unit']})" for n in loose))
     return Finding(
         physics=h.physics,
         location={
@@ -94,6 +105,11 @@ def make_finding(
         fit=fit,
         flags=tuple(bound) + tuple(flags),
     )
+
+
+def _determined(p: dict) -> bool:
+    """Whether the data determine a fitted parameter: its standard deviation below its magnitude."""
+    return p["std"] is not None and abs(p["std"]) < abs(p["value"])
 
 
 def point_of(h, markers) -> dict:
@@ -248,7 +264,8 @@ def explain(h: Hypothesis, p, std, lin0, lin1, located) -> str:
     if cand is not None and cand.explain is not None:
         return str(cand.explain(h, v, ExplainContext(shifts=shifts, new_modes_hz=tuple(new), where=where)))
     values = ", ".join(f"{n} = {a:.3g} +- {s:.2g}" for n, (a, s) in v.items())
-    return f"{h.physics} at {h.location}: {values} ({shifts})."
+    place = "" if h.location is None else f" at {h.location}"
+    return f"{h.physics}{place}: {values} ({shifts})."
 
 
 #: the carriers of an unexplained residual hold this share of its coherent energy

@@ -299,8 +299,8 @@ class Hypothesis:
 
     @property
     def label(self) -> str:
-        """``physics@location``."""
-        return f"{self.physics}@{self.location}"
+        """``physics@location``, or ``physics`` for an entry with no location (e.g. the drive linkage)."""
+        return self.physics if self.location is None else f"{self.physics}@{self.location}"
 
 
 class HeldHypothesis(Hypothesis):
@@ -1547,7 +1547,7 @@ class CompositeHypothesis(Hypothesis):
         super().__init__(
             "+".join(h.physics for h in self.members),
             ",".join(str(h.location) for h in self.members),
-            tuple(f"{self.members[i].physics}@{self.members[i].location}:{n}" for i, n in specs),
+            tuple(f"{self.members[i].label}:{n}" for i, n in specs),
             tuple(self.members[i].units[self.members[i].names.index(n)] for i, n in specs),
             lower,
             upper,

@@ -46,7 +46,10 @@ from pathlib import Path
 
 from exudyn_study.errors import InputError
 
-__all__ = ["Finding", "Diagnosis", "read_json", "FORMAT_NAME", "FORMAT_VERSION", "FIT_KEYS", "LOCATION_KEYS"]
+__all__ = [
+    "Finding", "Diagnosis", "read_json", "FORMAT_NAME", "FORMAT_VERSION", "FIT_KEYS", "LOCATION_KEYS",
+    "NOT_IDENTIFIABLE",
+]
 
 FORMAT_NAME = "exudyn_study.diagnosis"
 FORMAT_VERSION = 1
@@ -56,6 +59,9 @@ FIT_KEYS = ("train_before", "train_after", "holdout_before", "holdout_after", "m
 LOCATION_KEYS = ("sensors", "component", "interface")
 #: optional keys of a location: the place in global coordinates (m) and the sensor nearest to it
 LOCATION_OPTIONAL = ("position_m", "nearest_sensor")
+#: a flag containing this text marks a finding whose parameters the data do not determine: it is
+#: reported apart and not counted as a finding (:attr:`Finding.identifiable`)
+NOT_IDENTIFIABLE = "not identifiable"
 
 
 def _location(loc, who: str) -> dict:
@@ -196,6 +202,17 @@ class Finding:
             raise InputError(f"{who}: flags {self.flags!r}; expected a list of sentences (strings)")
         object.__setattr__(self, "flags", tuple(self.flags))
 
+    @property
+    def identifiable(self) -> bool:
+        """False when a flag says the data do not determine its parameters (:data:`NOT_IDENTIFIABLE`)."""
+        return not any(NOT_IDENTIFIABLE in t.lower() for t in self.flags)
+
+    @property
+    def place(self) -> str:
+        """Where the finding is: its interface, else its component, else its sensors (else ``"-"``)."""
+        loc = self.location
+        return loc.get("interface") or loc.get("component") or ", ".join(loc["sensors"]) or "-"
+
     def to_dict(self) -> dict:
         """JSON-ready dict of the module schema."""
         return {
@@ -295,16 +312,23 @@ class Diagnosis:
 
     @property
     def summary(self) -> str:
-        """One line: 'no missing physics found' or the named physics and unexplained count."""
+        """One line: 'no missing physics found', or the findings, the unexplained count and what is apart.
+
+        Findings whose parameters are not identifiable (:attr:`Finding.identifiable`) are not
+        named as findings: they are counted after the rest as fitted but not identifiable.
+        """
         if not self.mismatch_found:
             return "no missing physics found"
-        parts = [
-            f"{f.physics} at {f.location.get('interface') or ', '.join(f.location['sensors'])}"
-            for f in self.findings
-        ]
+        parts = [f"{f.physics} at {f.place}" for f in self.findings if f.identifiable]
         if self.unexplained:
-            parts.append(f"{len(self.unexplained)} unexplained mismatch(es)")
-        return "; ".join(parts) or "mismatch found"
+            n = len(self.unexplained)
+            parts.append(f"{n} unexplained mismatch{'es' if n > 1 else ''}")
+        weak = [f"{f.physics} at {f.place}" for f in self.findings if not f.identifiable]
+        if weak:
+            parts.append("fitted but not identifiable (not findings): " + ", ".join(weak))
+        if not any(f.identifiable for f in self.findings) and not self.unexplained:
+            parts.insert(0, "mismatch found, not explained")
+        return "; ".join(parts)
 
     def to_dict(self) -> dict:
         """JSON-ready dict of the module schema."""

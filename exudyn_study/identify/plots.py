@@ -145,9 +145,11 @@ def plot_frf_fit(result, path: str | os.PathLike, channels: Sequence[str] | None
     nrow = int(np.ceil(len(idx) / ncol))
     fig, axes = plt.subplots(nrow, ncol, figsize=(13, 2.6 * nrow + 0.6), squeeze=False, sharex=True)
     for ax, i in zip(axes.ravel(), idx, strict=False):
-        ax.semilogy(frf.freq_hz[sel], np.abs(frf.H[i, 0, sel]), color="tab:red", lw=1.0, label="measured")
+        # a wide light line under a thin dark dashed one: both stay visible where they agree
+        ax.semilogy(frf.freq_hz[sel], np.abs(frf.H[i, 0, sel]), color="tab:red", lw=2.2, alpha=0.55,
+                    label="measured")
         if fit is not None:
-            ax.semilogy(fit.freq_hz, np.abs(fit.synthesised[i, 0]), color="tab:green", lw=1.0, ls="--",
+            ax.semilogy(fit.freq_hz, np.abs(fit.synthesised[i, 0]), color="k", lw=0.9, ls="--",
                         label="synthesised")
             ax.set_title(f"{names[i]}: fit error {100 * fit.fit_error[i]:.1f} %", fontsize=9)
         else:

@@ -4,7 +4,10 @@ A stage such as a sparse factorisation or an eigen-solve blocks for minutes with
 update a bar; :class:`StageProgress` refreshes its bar from a small background thread once a
 second, so the elapsed time keeps moving and the user sees the step is alive. The bar is off when
 stderr is not a terminal (tests, CI, logs) unless ``EXUDYN_STUDY_PROGRESS=1``, and always off with
-``EXUDYN_STUDY_PROGRESS=0`` (the CLI's ``--quiet``).
+``EXUDYN_STUDY_PROGRESS=0`` (the CLI's ``--quiet``). :class:`StatusProgress` does the same for a
+step whose stages are not known in advance (a diagnosis's rounds and candidate fits): it shows the
+elapsed time and the latest status text. :func:`write_line` prints a whole line to stderr without
+tearing an active bar; :func:`keep_alive` gives any tqdm bar (a sweep's points) the same running clock.
 """
 
 from __future__ import annotations
@@ -12,11 +15,12 @@ from __future__ import annotations
 import os
 import sys
 import threading
-from collections.abc import Sequence
+from collections.abc import Iterator, Sequence
+from contextlib import contextmanager
 
 from tqdm import tqdm
 
-__all__ = ["StageProgress", "progress_enabled"]
+__all__ = ["StageProgress", "StatusProgress", "keep_alive", "progress_enabled", "write_line"]
 
 #: seconds between refreshes of a bar whose stage is blocking
 REFRESH_S = 1.0
@@ -99,3 +103,103 @@ class StageProgress:
             self._bar.update(len(self.stages) - self._bar.n)
             self._bar.set_postfix_str("done", refresh=True)
         self._bar.close()
+
+
+class StatusProgress:
+    """A bar with the elapsed time and the latest status text, refreshed once a second.
+
+    For a step whose stages are not known in advance: calling the object with a text shows it as
+    the current status (it is a ``progress(text)`` callable, as the diagnoses take).
+
+    Parameters
+    ----------
+    description : str
+        What is being done (the bar's label), e.g. ``"diagnosis of Model 3"``.
+    leave : bool
+        Keep the finished bar on the terminal.
+
+    Examples
+    --------
+    >>> with StatusProgress("diagnosis") as status:   # doctest: +SKIP
+    ...     status("comparing"); compare()
+    ...     status("fitting joint_stiffness"); fit()
+    """
+
+    def __init__(self, description: str, leave: bool = True):
+        self._bar = tqdm(total=None, desc=description, file=sys.stderr, disable=progress_enabled(),
+                         leave=leave, bar_format="{desc} [{elapsed}]{postfix}")
+        self._stop = threading.Event()
+        self._thread: threading.Thread | None = None
+
+    def __enter__(self) -> StatusProgress:
+        if not self._bar.disable:
+            self._thread = threading.Thread(target=self._heartbeat, daemon=True)
+            self._thread.start()
+        return self
+
+    def _heartbeat(self) -> None:
+        while not self._stop.wait(REFRESH_S):
+            self._bar.refresh()
+
+    def __call__(self, text: str) -> None:
+        """Show ``text`` as the current status (its first line, at most 80 characters).
+
+        Parameters
+        ----------
+        text : str
+            What the step is doing now.
+        """
+        line = str(text).strip().splitlines()[0] if str(text).strip() else ""
+        self._bar.set_postfix_str(line if len(line) <= 80 else line[:77] + "...", refresh=True)
+
+    def __exit__(self, exc_type, exc, tb) -> None:
+        self._stop.set()
+        if self._thread is not None:
+            self._thread.join()
+        if exc_type is None:
+            self._bar.set_postfix_str("done", refresh=True)
+        self._bar.close()
+
+
+def write_line(text: str) -> None:
+    """Print ``text`` as a line on stderr, above any active progress bar (which is redrawn below it).
+
+    Parameters
+    ----------
+    text : str
+        The line.
+    """
+    tqdm.write(str(text), file=sys.stderr)
+
+
+@contextmanager
+def keep_alive(bar) -> Iterator:
+    """Refresh the tqdm ``bar`` once a second while the ``with`` body runs, so its clock keeps moving.
+
+    A bar over slow items (a sweep point of minutes) otherwise stands still between two updates.
+
+    Parameters
+    ----------
+    bar : tqdm.tqdm
+        The bar (a disabled bar is left alone).
+
+    Yields
+    ------
+    tqdm.tqdm
+        The same bar.
+    """
+    stop = threading.Event()
+    thread = None
+    if not getattr(bar, "disable", True):
+        def beat() -> None:
+            while not stop.wait(REFRESH_S):
+                bar.refresh()
+
+        thread = threading.Thread(target=beat, daemon=True)
+        thread.start()
+    try:
+        yield bar
+    finally:
+        stop.set()
+        if thread is not None:
+            thread.join()

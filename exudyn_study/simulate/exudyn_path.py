@@ -12,6 +12,7 @@ their error against the exact linear solution.
 from __future__ import annotations
 
 import math
+import sys
 import time
 from dataclasses import dataclass
 
@@ -312,7 +313,9 @@ def _progress_action(duration_s: float, actions: list):
     """Add a pre-step action that advances a tqdm bar once per simulated second; return the bar."""
     from tqdm import tqdm
 
-    bar = tqdm(total=int(duration_s), unit="s", desc="exudyn", disable=None)
+    from exudyn_study.infra.progress import progress_enabled
+
+    bar = tqdm(total=int(duration_s), unit="s", desc="exudyn", file=sys.stderr, disable=progress_enabled())
     state = {"next": 1.0}
 
     def show_progress(t):

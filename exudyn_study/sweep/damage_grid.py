@@ -79,6 +79,7 @@ from exudyn_study.errors import InputError
 from exudyn_study.identify.model import write_modes_json
 from exudyn_study.infra.atomic import write_text_atomic
 from exudyn_study.infra.blas import single_threaded_blas
+from exudyn_study.infra.progress import StatusProgress
 from exudyn_study.recording.io import read_recording
 from exudyn_study.recording.types import Recording
 from exudyn_study.signals.fatigue import DEFAULT_BETA, RelativeDamage, relative_pseudo_damage
@@ -663,21 +664,28 @@ def run_grid(
         diagnosis or a diagnosis without the entries of its fitted model. Later: a compared channel
         missing from a measured recording, a calibration for another mesh.
     """
-    with single_threaded_blas():
+    with single_threaded_blas(), StatusProgress("damage grid") as status:
+
+        def say(text: str) -> None:
+            status(text)
+            if progress is None:
+                log.info("%s", text)
+            else:
+                progress(text)
+
         return _run_grid(measured, models, dampings, signals, iterate, out_dir, control=control,
                          channels=channels, beta=beta, rate_hz=rate_hz, max_iter=max_iter, tol=tol, reg=reg,
                          calibrations=calibrations, target=target, diagnosis=diagnosis, builder=builder,
                          probe_builder=probe_builder, mesh_size=mesh_size, cache_dir=cache_dir,
-                         plots=plots, progress=progress)
+                         plots=plots, say=say)
 
 
 def _run_grid(measured, models, dampings, signals, iterate, out_dir, *, control, channels, beta, rate_hz,
               max_iter, tol, reg, calibrations, target, diagnosis, builder, probe_builder, mesh_size,
-              cache_dir, plots, progress) -> GridResult:
+              cache_dir, plots, say) -> GridResult:
     from exudyn_study.model import VARIANTS
 
     t_start = time.perf_counter()
-    say = progress or (lambda text: log.info("%s", text))
     beta = _check_positive("beta", beta)
     rate_hz = _check_positive("rate_hz", rate_hz)
     if not (isinstance(max_iter, int) and max_iter >= 0):

@@ -527,8 +527,10 @@ def run_sweep(
 
     from tqdm.auto import tqdm
 
+    from exudyn_study.infra.progress import keep_alive, progress_enabled
+
     bar = tqdm(total=len(points), initial=len(points) - len(todo), unit="pt", desc=config.name,
-               disable=not progress or None, dynamic_ncols=True)
+               disable=True if not progress else progress_enabled(), dynamic_ncols=True, file=sys.stderr)
 
     recorded: set[str] = set()
 
@@ -543,10 +545,10 @@ def run_sweep(
             bar.write(f"point {row['index']} ({row['point_id']}) failed: {row['error']}")
 
     try:
-        if todo:
-            if scheduler is None:
+        with keep_alive(bar):  # the clock runs while a point of minutes is computed
+            if todo and scheduler is None:
                 _run_local(task, todo, list(artefacts.values()), workers, retries, on_row)
-            else:
+            elif todo:
                 _run_dask(task, todo, list(artefacts.values()), scheduler, retries, on_row)
     finally:
         bar.close()

@@ -70,7 +70,11 @@ log = logging.getLogger(__name__)
 def _bar(total: int, desc: str, enabled: bool):
     from tqdm import tqdm
 
-    return tqdm(total=total, desc=desc, file=sys.stderr, disable=not enabled, leave=False)
+    from exudyn_study.infra.progress import progress_enabled
+
+    # on a terminal only (or EXUDYN_STUDY_PROGRESS=1), as every bar of the package
+    return tqdm(total=total, desc=desc, file=sys.stderr, disable=True if not enabled else progress_enabled(),
+                leave=False)
 
 
 def _drive_point(rec: Recording) -> str | None:
