@@ -14,6 +14,7 @@ from exudyn_study.signals import white_noise
 from exudyn_study.signals.fatigue import (
     RelativeDamage,
     cycles_to_failure,
+    plausibility_notes,
     pseudo_damage,
     rainflow_cycles,
     relative_pseudo_damage,
@@ -145,8 +146,22 @@ def test_channel_set_errors_and_json():
         "relative_pseudo_damage",
     }
     assert data["beta"] == 5.0 and data["rate_hz"] == 204.8
-    with pytest.warns(UserWarning, match="pseudo damage grows with duration"):
-        relative_pseudo_damage(rec(x[:, :500], 204.8), sim)
+    assert data["notes"] == []
+    with pytest.warns(UserWarning, match="pseudo damage grows with the duration"):
+        short = relative_pseudo_damage(rec(x[:, :500], 204.8), sim)
+    assert "scaled by about" in short.notes[0]
+
+
+def test_plausibility_notes_name_the_channels_far_off_and_their_amplitude_ratio():
+    # relative damage 1e4 at beta 5 is an rms amplitude ratio of 1e4 ** 0.2 = 6.3
+    notes = plausibility_notes(["A", "B", "C"], [1.0, 1e4, 0.5], 5.0, 60.0, 60.0)
+    assert len(notes) == 1
+    assert "1 of 3 channel(s) off by more than x100 (B)" in notes[0]
+    assert "amplitude ratio of about 6.3" in notes[0]
+    assert plausibility_notes(["A"], [99.0], 5.0, 60.0, 60.0) == ()
+    assert plausibility_notes(["A"], [1 / 101], 5.0, 60.0, 60.0)[0].startswith("1 of 1")
+    (length,) = plausibility_notes(["A"], [1.0], 5.0, 10.0, 120.0)
+    assert "scaled by about 0.0833" in length
 
 
 def test_plot(tmp_path):

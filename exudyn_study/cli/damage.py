@@ -73,6 +73,7 @@ def run(args: argparse.Namespace) -> int:
         result = type(result)(
             result.channels, result.beta, result.rate_hz, result.C,
             {**result.info, "simulated_file": str(args.simulated), "measured_file": str(args.measured)},
+            result.notes,
         )
         json_path.write_text(result.to_json() + "\n", encoding="utf-8")
         if plot_path is not None:
@@ -85,4 +86,5 @@ def run(args: argparse.Namespace) -> int:
     for c in result.channels:
         print(f"{c.name:<{width}}  {c.damage_simulated:11.4e}  {c.damage_measured:11.4e}  {c.percent:8.1f}%")
     print(f"beta = {result.beta:g}, rate = {result.rate_hz:g} Hz -> {args.json}")
+
     return 0

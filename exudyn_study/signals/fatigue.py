@@ -45,6 +45,7 @@ __all__ = [
     "DEFAULT_BETA",
     "ChannelDamage",
     "RelativeDamage",
+    "plausibility_notes",
     "rainflow_cycles",
     "cycles_to_failure",
     "pseudo_damage",
@@ -258,6 +259,9 @@ class RelativeDamage:
         Basquin constant (default 1).
     info : mapping str -> str | int | float, optional
         Provenance, e.g. the sources of the two recordings.
+    notes : tuple of str, optional
+        Plausibility notes on the comparison (:func:`plausibility_notes`): recordings of
+        different length, relative damage off by orders of magnitude.
     """
 
     channels: tuple[ChannelDamage, ...]
@@ -265,6 +269,7 @@ class RelativeDamage:
     rate_hz: float
     C: float = 1.0
     info: Mapping[str, str | int | float] = field(default_factory=dict)
+    notes: tuple[str, ...] = ()
 
     def __post_init__(self) -> None:
         object.__setattr__(self, "channels", tuple(self.channels))
@@ -272,6 +277,7 @@ class RelativeDamage:
         if len(set(names)) != len(names):
             raise InputError(f"RelativeDamage: repeated channel names in {names}")
         object.__setattr__(self, "info", dict(self.info))
+        object.__setattr__(self, "notes", tuple(str(n) for n in self.notes))
 
     @property
     def names(self) -> tuple[str, ...]:
@@ -295,7 +301,7 @@ class RelativeDamage:
         Returns
         -------
         dict
-            ``{'beta', 'C', 'rate_hz', 'info', 'channels': {name: {
+            ``{'beta', 'C', 'rate_hz', 'info', 'notes', 'channels': {name: {
             'pseudo_damage_simulated', 'pseudo_damage_measured',
             'relative_pseudo_damage'}}}``.
         """
@@ -308,6 +314,7 @@ class RelativeDamage:
             "C": self.C,
             "rate_hz": self.rate_hz,
             "info": dict(self.info),
+            "notes": list(self.notes),
             "channels": {
                 c.name: {
                     "pseudo_damage_simulated": num(c.damage_simulated),
@@ -321,6 +328,58 @@ class RelativeDamage:
     def to_json(self, indent: int | None = 2) -> str:
         """Return :meth:`as_dict` as a JSON string."""
         return json.dumps(self.as_dict(), indent=indent, allow_nan=False)
+
+
+#: relative pseudo damage beyond this factor either way is noted as implausible for a model of the
+#: same structure: with beta = 5 it is an amplitude ratio above 2.5, a missed or spurious resonance
+#: rather than a damping question
+IMPLAUSIBLE_DAMAGE_FACTOR = 100.0
+
+
+def plausibility_notes(names, ratios, beta: float, simulated_s: float, measured_s: float) -> tuple[str, ...]:
+    """Return notes on a relative pseudo damage that is suspect before it is read.
+
+    Pseudo damage grows in proportion to the duration counted, so recordings of different length
+    bias every ratio by the length ratio; a ratio beyond :data:`IMPLAUSIBLE_DAMAGE_FACTOR` either
+    way means an rms amplitude ratio of about ``ratio ** (1 / beta)``, which damping alone does
+    not explain.
+
+    Parameters
+    ----------
+    names : sequence of str
+        Channel names.
+    ratios : array_like
+        Relative pseudo damage per channel (fraction; 1 = as measured).
+    beta : float
+        Basquin exponent of the count.
+    simulated_s, measured_s : float
+        Durations of the two recordings in s.
+
+    Returns
+    -------
+    tuple of str
+        One sentence per note; empty when nothing is suspect.
+    """
+    notes = []
+    longer, shorter = max(simulated_s, measured_s), min(simulated_s, measured_s)
+    if shorter > 0 and longer > 1.01 * shorter:
+        notes.append(
+            f"the simulated recording is {simulated_s:g} s and the measured one {measured_s:g} s: every "
+            f"ratio is scaled by about {simulated_s / measured_s:.3g} (pseudo damage grows with the "
+            "duration counted); compare recordings of equal length")
+    r = np.asarray(ratios, dtype=float)
+    with np.errstate(divide="ignore", invalid="ignore"):
+        off = np.where(np.isfinite(r) & (r > 0), np.maximum(r, 1.0 / r), np.nan)
+    far = [i for i in np.flatnonzero(off > IMPLAUSIBLE_DAMAGE_FACTOR)]
+    if far:
+        worst = max(far, key=lambda i: off[i])
+        listed = ", ".join(str(names[i]) for i in far[:6]) + (", ..." if len(far) > 6 else "")
+        notes.append(
+            f"{len(far)} of {r.size} channel(s) off by more than x{IMPLAUSIBLE_DAMAGE_FACTOR:g} ({listed}); "
+            f"the worst, {names[worst]}, at {100 * r[worst]:.3g} % is an rms amplitude ratio of about "
+            f"{r[worst] ** (1.0 / beta):.2g}: a resonance the model misses or adds, not a damping "
+            "question (exudyn-study diagnose locates it)")
+    return tuple(notes)
 
 
 def _channel_names(
@@ -441,14 +500,6 @@ def relative_pseudo_damage(
 
     d_sim = [float(pseudo_damage(x, beta, C)) for x in at_rate(sim_ch)]
     d_meas = [float(pseudo_damage(x, beta, C)) for x in at_rate(meas_ch)]
-    for s, m in zip(sim_ch, meas_ch, strict=True):
-        if abs(s.duration_s - m.duration_s) > 0.01 * max(s.duration_s, m.duration_s):
-            warnings.warn(
-                f"channel {s.name!r}: simulated {s.duration_s:g} s vs measured "
-                f"{m.duration_s:g} s; pseudo damage grows with duration",
-                stacklevel=2,
-            )
-            break
     results = []
     for n, ds, dm in zip(names, d_sim, d_meas, strict=True):
         if dm == 0.0:
@@ -460,10 +511,14 @@ def relative_pseudo_damage(
         else:
             ratio = ds / dm
         results.append(ChannelDamage(n, ds, dm, ratio))
+    notes = plausibility_notes(names, [c.ratio for c in results], beta,
+                               max(c.duration_s for c in sim_ch), max(c.duration_s for c in meas_ch))
+    for note in notes:
+        warnings.warn(note, stacklevel=2)
     info = {
         f"{label}_{key}": value
         for label, rec in (("simulated", simulated), ("measured", measured))
         for key, value in rec.metadata.items()
         if key in ("source", "model", "damping", "signal", "seed")
     }
-    return RelativeDamage(tuple(results), beta, rate, C, info)
+    return RelativeDamage(tuple(results), beta, rate, C, info, notes)
