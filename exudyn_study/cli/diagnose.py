@@ -94,7 +94,7 @@ def configure(parser: argparse.ArgumentParser) -> None:
                         help="levels: period of a periodic drive in s (default: detected from the drive)")
     parser.add_argument("--realisations", type=int, default=1, metavar="N",
                         help="levels: the record holds N multisine realisations one after the other, each of "
-                        "whole periods (default 1)")
+                        "whole periods")
     parser.add_argument("--excitation", choices=("auto", "periodic", "random"), default="auto",
                         help="levels: FRF estimate for a periodic (multisine) or random drive")
     add_hidden_alias(parser, "--no-progress", "quiet", action="store_true")  # the one name is --quiet
