@@ -20,14 +20,14 @@ from contextlib import contextmanager
 
 from tqdm import tqdm
 
-__all__ = ["StageProgress", "StatusProgress", "keep_alive", "progress_enabled", "write_line"]
+__all__ = ["StageProgress", "StatusProgress", "keep_alive", "progress_disabled", "write_line"]
 
 #: seconds between refreshes of a bar whose stage is blocking
 REFRESH_S = 1.0
 
 
-def progress_enabled() -> bool | None:
-    """Return tqdm's ``disable`` argument for progress bars (None: on only when stderr is a terminal).
+def progress_disabled() -> bool | None:
+    """Return whether progress bars are off, as tqdm's ``disable`` argument (None: tqdm decides).
 
     ``EXUDYN_STUDY_PROGRESS=0`` turns bars off, ``EXUDYN_STUDY_PROGRESS=1`` on even when stderr
     is not a terminal.
@@ -45,7 +45,32 @@ def progress_enabled() -> bool | None:
     return None
 
 
-class StageProgress:
+class _RefreshedBar:
+    """A tqdm bar on stderr redrawn once a second by a thread, so its clock runs while a step blocks."""
+
+    def __init__(self, description: str, leave: bool, **bar_options):
+        self._bar = tqdm(desc=description, file=sys.stderr, disable=progress_disabled(), leave=leave,
+                         **bar_options)
+        self._stop = threading.Event()
+        self._thread: threading.Thread | None = None
+
+    def __enter__(self):
+        if not self._bar.disable:
+            self._thread = threading.Thread(target=self._heartbeat, daemon=True)
+            self._thread.start()
+        return self
+
+    def _heartbeat(self) -> None:
+        while not self._stop.wait(REFRESH_S):
+            self._bar.refresh()
+
+    def _stop_heartbeat(self) -> None:
+        self._stop.set()
+        if self._thread is not None:
+            self._thread.join()
+
+
+class StageProgress(_RefreshedBar):
     """A progress bar over named stages, refreshed once a second while a stage blocks.
 
     Parameters
@@ -66,21 +91,8 @@ class StageProgress:
 
     def __init__(self, description: str, stages: Sequence[str], leave: bool = True):
         self.stages = tuple(stages)
-        self._bar = tqdm(total=len(self.stages), desc=description, file=sys.stderr,
-                         disable=progress_enabled(), leave=leave,
+        super().__init__(description, leave, total=len(self.stages),
                          bar_format="{desc} [{elapsed}] stage {n_fmt}/{total_fmt}{postfix}")
-        self._stop = threading.Event()
-        self._thread: threading.Thread | None = None
-
-    def __enter__(self) -> StageProgress:
-        if not self._bar.disable:
-            self._thread = threading.Thread(target=self._heartbeat, daemon=True)
-            self._thread.start()
-        return self
-
-    def _heartbeat(self) -> None:
-        while not self._stop.wait(REFRESH_S):
-            self._bar.refresh()
 
     def stage(self, name: str) -> None:
         """Mark the stages before ``name`` as done and show ``name`` as the current one.
@@ -96,16 +108,14 @@ class StageProgress:
         self._bar.set_postfix_str(name, refresh=True)
 
     def __exit__(self, exc_type, exc, tb) -> None:
-        self._stop.set()
-        if self._thread is not None:
-            self._thread.join()
+        self._stop_heartbeat()
         if exc_type is None:
             self._bar.update(len(self.stages) - self._bar.n)
             self._bar.set_postfix_str("done", refresh=True)
         self._bar.close()
 
 
-class StatusProgress:
+class StatusProgress(_RefreshedBar):
     """A bar with the elapsed time and the latest status text, refreshed once a second.
 
     For a step whose stages are not known in advance: calling the object with a text shows it as
@@ -126,20 +136,7 @@ class StatusProgress:
     """
 
     def __init__(self, description: str, leave: bool = True):
-        self._bar = tqdm(total=None, desc=description, file=sys.stderr, disable=progress_enabled(),
-                         leave=leave, bar_format="{desc} [{elapsed}]{postfix}")
-        self._stop = threading.Event()
-        self._thread: threading.Thread | None = None
-
-    def __enter__(self) -> StatusProgress:
-        if not self._bar.disable:
-            self._thread = threading.Thread(target=self._heartbeat, daemon=True)
-            self._thread.start()
-        return self
-
-    def _heartbeat(self) -> None:
-        while not self._stop.wait(REFRESH_S):
-            self._bar.refresh()
+        super().__init__(description, leave, total=None, bar_format="{desc} [{elapsed}]{postfix}")
 
     def __call__(self, text: str) -> None:
         """Show ``text`` as the current status (its first line, at most 80 characters).
@@ -153,9 +150,7 @@ class StatusProgress:
         self._bar.set_postfix_str(line if len(line) <= 80 else line[:77] + "...", refresh=True)
 
     def __exit__(self, exc_type, exc, tb) -> None:
-        self._stop.set()
-        if self._thread is not None:
-            self._thread.join()
+        self._stop_heartbeat()
         if exc_type is None:
             self._bar.set_postfix_str("done", refresh=True)
         self._bar.close()

@@ -313,9 +313,9 @@ def _progress_action(duration_s: float, actions: list):
     """Add a pre-step action that advances a tqdm bar once per simulated second; return the bar."""
     from tqdm import tqdm
 
-    from exudyn_study.infra.progress import progress_enabled
+    from exudyn_study.infra.progress import progress_disabled
 
-    bar = tqdm(total=int(duration_s), unit="s", desc="exudyn", file=sys.stderr, disable=progress_enabled())
+    bar = tqdm(total=int(duration_s), unit="s", desc="exudyn", file=sys.stderr, disable=progress_disabled())
     state = {"next": 1.0}
 
     def show_progress(t):

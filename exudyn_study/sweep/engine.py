@@ -527,10 +527,10 @@ def run_sweep(
 
     from tqdm.auto import tqdm
 
-    from exudyn_study.infra.progress import keep_alive, progress_enabled
+    from exudyn_study.infra.progress import keep_alive, progress_disabled
 
     bar = tqdm(total=len(points), initial=len(points) - len(todo), unit="pt", desc=config.name,
-               disable=True if not progress else progress_enabled(), dynamic_ncols=True, file=sys.stderr)
+               disable=True if not progress else progress_disabled(), dynamic_ncols=True, file=sys.stderr)
 
     recorded: set[str] = set()
 

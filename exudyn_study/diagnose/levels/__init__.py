@@ -70,10 +70,10 @@ log = logging.getLogger(__name__)
 def _bar(total: int, desc: str, enabled: bool):
     from tqdm import tqdm
 
-    from exudyn_study.infra.progress import progress_enabled
+    from exudyn_study.infra.progress import progress_disabled
 
     # on a terminal only (or EXUDYN_STUDY_PROGRESS=1), as every bar of the package
-    return tqdm(total=total, desc=desc, file=sys.stderr, disable=True if not enabled else progress_enabled(),
+    return tqdm(total=total, desc=desc, file=sys.stderr, disable=True if not enabled else progress_disabled(),
                 leave=False)
 
 
