@@ -67,6 +67,24 @@ __all__ = [
 log = logging.getLogger(__name__)
 
 
+def _split_levels(n: int, train, holdout, what: str) -> tuple[list[int], list[int]]:
+    """Check the training and held-out indices of ``n`` levels (``what`` names them in the message)."""
+    train, holdout = [int(i) for i in train], [int(i) for i in holdout]
+    if n < 3:
+        raise InputError(f"{n} {what}; a level trend needs at least 3 drive levels")
+    if (
+        set(train) & set(holdout)
+        or not train
+        or not holdout
+        or min(train + holdout) < 0
+        or max(train + holdout) >= n
+    ):
+        raise InputError(
+            f"train {train} and holdout {holdout}: expected disjoint, non-empty indices in 0..{n - 1}"
+        )
+    return train, holdout
+
+
 def _bar(total: int, desc: str, enabled: bool):
     from tqdm import tqdm
 
@@ -133,19 +151,7 @@ def diagnose_levels(
     settings = settings or LevelSettings()
     recs = list(recordings)
     n = len(recs)
-    train, holdout = [int(i) for i in train], [int(i) for i in holdout]
-    if n < 3:
-        raise InputError(f"{n} recording(s); a level trend needs at least 3 drive levels")
-    if (
-        set(train) & set(holdout)
-        or not train
-        or not holdout
-        or min(train + holdout) < 0
-        or max(train + holdout) >= n
-    ):
-        raise InputError(
-            f"train {train} and holdout {holdout}: expected disjoint, non-empty indices in 0..{n - 1}"
-        )
+    train, holdout = _split_levels(n, train, holdout, "recording(s)")
     labels = (
         list(labels)
         if labels is not None
@@ -216,19 +222,7 @@ def diagnose_level_frfs(
     settings = settings or LevelSettings()
     frfs = list(frfs)
     n = len(frfs)
-    train, holdout = [int(i) for i in train], [int(i) for i in holdout]
-    if n < 3:
-        raise InputError(f"{n} level(s); a level trend needs at least 3 drive levels")
-    if (
-        set(train) & set(holdout)
-        or not train
-        or not holdout
-        or min(train + holdout) < 0
-        or max(train + holdout) >= n
-    ):
-        raise InputError(
-            f"train {train} and holdout {holdout}: expected disjoint, non-empty indices in 0..{n - 1}"
-        )
+    train, holdout = _split_levels(n, train, holdout, "level(s)")
     labels = [f.label for f in frfs]
     dp = drive_point
     ref_i = int(np.argmin([f.level for f in frfs]))
