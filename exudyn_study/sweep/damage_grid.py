@@ -61,17 +61,15 @@ and every cell is a few seconds.
 
 from __future__ import annotations
 
-import csv
 import json
 import logging
 import math
 import os
 import re
-import tempfile
 import time
 import warnings
 from collections.abc import Callable, Mapping, Sequence
-from dataclasses import dataclass, field, replace
+from dataclasses import dataclass, replace
 from pathlib import Path
 
 import numpy as np
@@ -83,7 +81,7 @@ from exudyn_study.infra.blas import single_threaded_blas
 from exudyn_study.infra.progress import StatusProgress
 from exudyn_study.recording.io import read_recording
 from exudyn_study.recording.types import Recording
-from exudyn_study.signals.fatigue import DEFAULT_BETA, RelativeDamage, relative_pseudo_damage
+from exudyn_study.signals.fatigue import DEFAULT_BETA, relative_pseudo_damage
 from exudyn_study.sweep.grid_damping import (
     CALIBRATED,
     DAMPING_NAMES,
@@ -93,6 +91,13 @@ from exudyn_study.sweep.grid_damping import (
     ema_target,
     resolve_damping,
     table1_target,
+)
+from exudyn_study.sweep.grid_result import (
+    SENSOR_GROUPS,
+    CellResult,
+    GridResult,
+    file_slug,
+    sensor_group,
 )
 from exudyn_study.sweep.plant import CONTROL, ModelPlant, iterate_model_drive
 
@@ -112,400 +117,12 @@ log = logging.getLogger(__name__)
 
 #: damping functions of the grid (thesis Section 6: the two references and the suggested one)
 GRID_DAMPINGS = ("adams-default", "step", "suggested")
-#: sensor groups of the grid's reading, in the order they are reported
-SENSOR_GROUPS = ("frame and cross members", "tanks", "brackets", "rear attachments")
-#: the acceptance band of relative pseudo damage (ratios)
-BAND = (0.5, 2.0)
 #: drive signals of the grid (thesis Section 7)
 GRID_SIGNALS = ("white-noise", "test", "test-50")
 #: rate in Hz at which pseudo damage is counted (the thesis's simulation rate, Section 7.2)
 DAMAGE_RATE_HZ = 204.8
 
 
-
-def sensor_group(name: str) -> str:
-    """Return the sensor group of a thesis sensor (one of :data:`SENSOR_GROUPS`).
-
-    Tanks and brackets are the sensors on those components; the rear attachments are the
-    frame's sensors at its rear supports (ARVBZ, ARHBZ); every other frame sensor (side
-    members, cross members, the tank and bracket mounts on the frame) is "frame and cross
-    members". A name not in thesis Appendix A counts as frame.
-
-    Parameters
-    ----------
-    name : str
-        Sensor name (thesis Appendix A, e.g. ``"ASVZ"``).
-
-    Returns
-    -------
-    str
-    """
-    from exudyn_study.model.sensors import sensor
-
-    try:
-        s = sensor(name)
-    except InputError:
-        return SENSOR_GROUPS[0]
-    if s.component.startswith("tank"):
-        return "tanks"
-    if s.component.startswith("bracket"):
-        return "brackets"
-    if s.description.lower().startswith("rear attachment"):
-        return "rear attachments"
-    return SENSOR_GROUPS[0]
-
-
-def _miss(ratio) -> np.ndarray:
-    """Factor by which a simulation misses the measured damage: ``exp |log ratio|`` (1 = exact)."""
-    r = np.asarray(ratio, dtype=float)
-    with np.errstate(divide="ignore", invalid="ignore"):
-        return np.exp(np.abs(np.log(r)))
-
-
-# ---------------------------------------------------------------------------------------
-# Results
-# ---------------------------------------------------------------------------------------
-
-
-@dataclass(frozen=True, eq=False)
-class CellResult:
-    """One cell of the grid: a model, damping and signal.
-
-    Parameters
-    ----------
-    model : int
-        Model variant.
-    damping : str
-        Damping name.
-    signal : str
-        Drive signal name (key of the measured recordings).
-    damage : RelativeDamage
-        Relative pseudo damage per compared channel.
-    iteration_errors : ndarray, shape (n_runs, n_control), or None
-        Relative rms error per iteration run and control channel (None: not iterated).
-    converged : bool or None
-        Whether the iteration reached its tolerance (None: not iterated).
-    wall_s : float
-        Wall time of the cell in s (model build excluded).
-    """
-
-    model: int
-    damping: str
-    signal: str
-    damage: RelativeDamage
-    iteration_errors: np.ndarray | None
-    converged: bool | None
-    wall_s: float
-
-    @property
-    def final_error(self) -> float:
-        """Worst control channel's relative rms error of the drive used (nan: not iterated)."""
-        if self.iteration_errors is None:
-            return math.nan
-        return float(self.iteration_errors.max(axis=1).min())
-
-
-@dataclass(frozen=True, eq=False)
-class GridResult:
-    """The study grid: relative pseudo damage per model, damping, signal and sensor.
-
-    Parameters
-    ----------
-    cells : tuple of CellResult
-    control : tuple of str
-        Control channels of the drive iteration.
-    beta : float
-        Basquin exponent.
-    rate_hz : float
-        Rate at which damage was counted.
-    wall_time_s : float
-        Wall time of :func:`run_grid`, model builds included.
-    files : tuple of Path
-        Files written (CSV, plots, calibrations, reading).
-    calibrations : mapping (model, damping) -> dict
-        Each calibrated column's calibration (:meth:`CalibrationResult.to_dict`: the pairing
-        with MAC and frequencies, the unpaired target modes, the chosen ratios).
-    notes : tuple of str
-        What the grid could not run and why (e.g. the diagnosed column on another model).
-    """
-
-    cells: tuple[CellResult, ...]
-    control: tuple[str, ...]
-    beta: float
-    rate_hz: float
-    wall_time_s: float
-    files: tuple[Path, ...] = ()
-    calibrations: Mapping = field(default_factory=dict)
-    notes: tuple[str, ...] = ()
-
-    def cell(self, model: int, damping: str, signal: str) -> CellResult:
-        """Return the cell of (model, damping, signal).
-
-        Parameters
-        ----------
-        model : int
-            Model variant (1, 2 or 3).
-        damping : str
-            Damping name (one of :data:`DAMPING_NAMES`).
-        signal : str
-            Drive signal name.
-
-        Returns
-        -------
-        CellResult
-            The result of that cell.
-
-        Raises
-        ------
-        InputError
-            If the grid has no such cell.
-        """
-        for c in self.cells:
-            if (c.model, c.damping, c.signal) == (model, damping, signal):
-                return c
-        raise InputError(f"no cell model {model}, damping {damping!r}, signal {signal!r} in the grid")
-
-    def rows(self) -> list[dict]:
-        """Long-format table: one row per cell and channel.
-
-        Columns: ``model, damping, signal, channel, pseudo_damage_simulated,
-        pseudo_damage_measured, relative_pseudo_damage`` (a ratio; 1 = measured),
-        ``iteration_error`` (worst control channel, relative rms).
-        """
-        out = []
-        for c in self.cells:
-            for ch in c.damage.channels:
-                out.append({
-                    "model": c.model, "damping": c.damping, "signal": c.signal, "channel": ch.name,
-                    "pseudo_damage_simulated": ch.damage_simulated,
-                    "pseudo_damage_measured": ch.damage_measured,
-                    "relative_pseudo_damage": ch.ratio,
-                    "iteration_error": c.final_error,
-                })
-        return out
-
-    def iteration_rows(self) -> list[dict]:
-        """One row per cell and iteration run: ``model, damping, signal, run, <control>...``."""
-        out = []
-        for c in self.cells:
-            if c.iteration_errors is None:
-                continue
-            for k, row in enumerate(c.iteration_errors):
-                out.append({"model": c.model, "damping": c.damping, "signal": c.signal, "run": k,
-                            **{name: float(e) for name, e in zip(self.control, row, strict=True)}})
-        return out
-
-    def summary(self) -> str:
-        """Text table per cell: iteration error and the spread of relative pseudo damage (%)."""
-        head = (f"{'model':>5} {'damping':<14} {'signal':<11} {'runs':>4} {'ctrl err':>8} "
-                f"{'median %':>9} {'min %':>8} {'max %':>9} {'in 50-200 %':>11} {'s':>6}")
-        lines = [head]
-        for c in self.cells:
-            r = 100 * c.damage.ratios
-            r = r[np.isfinite(r)]
-            runs = "-" if c.iteration_errors is None else str(c.iteration_errors.shape[0])
-            err = "-" if c.iteration_errors is None else f"{100 * c.final_error:.1f}%"
-            inside = f"{int(np.sum((r >= 50) & (r <= 200)))}/{r.size}"
-            lines.append(
-                f"{c.model:>5} {c.damping:<14} {c.signal:<11} {runs:>4} {err:>8} "
-                f"{np.median(r):9.1f} {r.min():8.1f} {r.max():9.1f} {inside:>11} {c.wall_s:6.1f}")
-        return "\n".join(lines)
-
-    def group_ratios(self, model: int) -> dict[str, dict[str, np.ndarray]]:
-        """Relative damage of one model by sensor group and damping, over the group's sensors and the signals.
-
-        Parameters
-        ----------
-        model : int
-            Model variant (1, 2 or 3).
-
-        Returns
-        -------
-        dict group -> dict damping -> ndarray of ratios (1 = measured)
-        """
-        out: dict[str, dict[str, list]] = {}
-        for c in self.cells:
-            if c.model != model:
-                continue
-            for ch in c.damage.channels:
-                out.setdefault(sensor_group(ch.name), {}).setdefault(c.damping, []).append(ch.ratio)
-        order = [g for g in SENSOR_GROUPS if g in out]
-        return {g: {d: np.asarray(v, float) for d, v in out[g].items()} for g in order}
-
-    def median_ratio(self, model: int, damping: str, signal: str | None = None) -> float:
-        """Return the median relative damage (ratio) of a column over its sensors (and signals, if None).
-
-        Parameters
-        ----------
-        model : int
-            Model variant (1, 2 or 3).
-        damping : str
-            The damping column (e.g. ``"step"``, ``"suggested"``).
-        signal : str, optional
-            One drive signal; None takes every signal of the grid.
-
-        Returns
-        -------
-        float
-            The median of simulated / measured pseudo damage (1 = measured).
-        """
-        r = [c.damage.ratios for c in self.cells
-             if c.model == model and c.damping == damping and (signal is None or c.signal == signal)]
-        if not r:
-            raise InputError(f"no cell model {model}, damping {damping!r}"
-                             + ("" if signal is None else f", signal {signal!r}") + " in the grid")
-        r = np.concatenate(r)
-        r = r[np.isfinite(r)]
-        return float(np.median(r)) if r.size else math.nan
-
-    def reading(self) -> str:
-        """Read the grid per model and sensor group: which damping predicts the measured damage best.
-
-        For each model and sensor group the dampings are ranked by the median over the
-        group's sensors and signals of the miss factor ``exp |log(D_sim / D_meas)|`` (1: the
-        simulation's damage equals the measured one; 2: off by a factor of two either way);
-        the text gives each column's median relative damage, the best one and by how much it
-        beats the next, the sensors within 50-200 %, and says where no damping brings the
-        group within 50-200 %.
-        """
-        lines = []
-        dampings = list(dict.fromkeys(c.damping for c in self.cells))
-        for m in dict.fromkeys(c.model for c in self.cells):
-            cols = [d for d in dampings if any(c.model == m and c.damping == d for c in self.cells)]
-            lines.append(f"Model {m} (median relative damage over all sensors and signals: "
-                         + ", ".join(f"{d} {100 * self.median_ratio(m, d):.0f} %" for d in cols) + ")")
-            for g, per in self.group_ratios(m).items():
-                miss = {d: float(np.nanmedian(_miss(v))) for d, v in per.items()}
-                ranked = sorted(miss, key=miss.get)
-                best = ranked[0]
-                med = {d: 100 * float(np.nanmedian(v)) for d, v in per.items()}
-                inside = {d: int(np.sum((v >= BAND[0]) & (v <= BAND[1]))) for d, v in per.items()}
-                n = len(per[best])
-                text = (f"  {g}: best {best} (median {med[best]:.0f} %, off by x{miss[best]:.2f}, "
-                        f"{inside[best]}/{n} sensor-signals within 50-200 %)")
-                if len(ranked) > 1:
-                    nxt = ranked[1]
-                    text += (f"; next {nxt} ({med[nxt]:.0f} %, x{miss[nxt]:.2f}): "
-                             f"{miss[nxt] / miss[best]:.2f} times further off")
-                others = ", ".join(f"{d} {med[d]:.0f} %" for d in ranked[2:])
-                if others:
-                    text += f"; then {others}"
-                lines.append(text)
-                if not any(BAND[0] <= med[d] / 100 <= BAND[1] for d in per):
-                    if "diagnosed" in per:
-                        hint = ("the diagnosed model does not reach it either: what is missing there is not "
-                                "yet modelled (see the diagnosis's unexplained mismatch)")
-                    else:
-                        hint = ("no damping reaches it: the model lacks physics the rig has there; run the "
-                                "diagnosis (exudyn-study diagnose) and add its column (diagnosis=...)")
-                    lines.append(f"    no column within 50-200 % for the {g}: {hint}")
-        lines.extend(self.notes)
-        return "\n".join(lines)
-
-    def pairing_report(self) -> str:
-        """Per calibrated column the pairing of model and target modes (MAC, frequency error, unpaired)."""
-        lines = []
-        for (m, d), cal in self.calibrations.items():
-            meta = cal.get("metadata", {})
-            conv = cal.get("convergence", {})
-            lines.append(f"Model {m}, {d}: calibrated on {meta.get('target', 'target')}, "
-                         f"{len(cal.get('variables', {}))} variables, max |damping error| "
-                         f"{100 * (conv.get('max_abs_error') or math.nan):.3f} pp")
-            lines.append(f"  {'f model Hz':>10} {'zeta %':>7} {'f target Hz':>11} {'target %':>8} "
-                         f"{'df %':>6} {'MAC':>5}")
-            for r in cal.get("modes", []):
-                if r["target_frequency_hz"] is None:
-                    continue
-                df = 100 * (r["frequency_hz"] / r["target_frequency_hz"] - 1)
-                mac_ = "-" if r["mac"] is None else f"{r['mac']:.2f}"
-                lines.append(f"  {r['frequency_hz']:10.2f} {100 * r['damping_ratio']:7.2f} "
-                             f"{r['target_frequency_hz']:11.2f} {100 * r['target_damping_ratio']:8.2f} "
-                             f"{df:6.1f} {mac_:>5}")
-            un = cal.get("unpaired_targets", [])
-            lines.append("  target modes without a partner: " + (", ".join(
-                f"{u['target_frequency_hz']:.2f} Hz ({100 * u['target_damping_ratio']:.2f} %)" for u in un)
-                if un else "none"))
-        return "\n".join(lines)
-
-    def write_csv(self, path: str | os.PathLike, iterations: bool = False) -> Path:
-        """Write :meth:`rows` (or :meth:`iteration_rows`) to a CSV file atomically.
-
-        Parameters
-        ----------
-        path : str or os.PathLike
-            CSV file to write; its directory must exist. An existing file is replaced.
-        iterations : bool, default False
-            Whether to write the drive iteration rows instead of the damage rows.
-
-        Returns
-        -------
-        pathlib.Path
-            The written path.
-        """
-        rows = self.iteration_rows() if iterations else self.rows()
-        fields = list(rows[0]) if rows else ["model", "damping", "signal"]
-        path = Path(path)
-        fd, tmp = tempfile.mkstemp(dir=path.parent, prefix=f".{path.name}.", suffix=".tmp")
-        try:
-            with os.fdopen(fd, "w", newline="", encoding="utf-8") as fh:
-                w = csv.DictWriter(fh, fieldnames=fields)
-                w.writeheader()
-                for row in rows:
-                    w.writerow({k: (f"{v:.6g}" if isinstance(v, float) else v) for k, v in row.items()})
-            os.replace(tmp, path)
-        finally:
-            if os.path.exists(tmp):
-                os.unlink(tmp)
-        return path
-
-    def plot(self, out_dir: str | os.PathLike) -> list[Path]:
-        """Bar plots like thesis Figures 22-27 into ``out_dir``.
-
-        Per model and signal the dampings side by side (``model<m>_<signal>_dampings.png``,
-        Figs 22-24 for white noise), and per model and damping the signals side by side
-        (``model<m>_<damping>_signals.png``, Figs 25-27 for the suggested damping), where
-        there is more than one case to compare; per model a summary by sensor group and
-        damping (``model<m>_summary.png``).
-
-        Parameters
-        ----------
-        out_dir : str or os.PathLike
-            Existing directory the PNG files are written to.
-
-        Returns
-        -------
-        list of pathlib.Path
-            The written figure files.
-        """
-        from exudyn_study.signals.fatigue_plots import plot_damage_summary, plot_relative_pseudo_damage
-
-        out = Path(out_dir)
-        written = []
-        models = list(dict.fromkeys(c.model for c in self.cells))
-        dampings = list(dict.fromkeys(c.damping for c in self.cells))
-        signals = list(dict.fromkeys(c.signal for c in self.cells))
-        for m in models:
-            for s in signals:
-                cases = {c.damping: c.damage for c in self.cells if c.model == m and c.signal == s}
-                if len(cases) > 1 or len(dampings) == 1 and len(signals) == 1:
-                    written.append(plot_relative_pseudo_damage(
-                        cases, out / f"model{m}_{_slug(s)}_dampings.png",
-                        title=f"Model {m}, {s}: relative pseudo damage by damping"))
-            for d in dampings:
-                cases = {c.signal: c.damage for c in self.cells if c.model == m and c.damping == d}
-                if len(cases) > 1:
-                    written.append(plot_relative_pseudo_damage(
-                        cases, out / f"model{m}_{_slug(d)}_signals.png",
-                        title=f"Model {m}, {d} damping: relative pseudo damage by signal"))
-            written.append(plot_damage_summary(
-                self.group_ratios(m), out / f"model{m}_summary.png",
-                title=f"Model {m}: relative pseudo damage by sensor group and damping\n"
-                      f"(signals: {', '.join(signals)})"))
-        return written
-
-
-def _slug(text: str) -> str:
-    return re.sub(r"[^A-Za-z0-9_.-]+", "-", text)
 
 
 # ---------------------------------------------------------------------------------------
@@ -681,24 +298,30 @@ def run_grid(
                          plots=plots, say=say)
 
 
-def _run_grid(measured, models, dampings, signals, iterate, out_dir, *, control, channels, beta, rate_hz,
-              max_iter, tol, reg, calibrations, target, diagnosis, builder, probe_builder, mesh_size,
-              cache_dir, plots, say) -> GridResult:
+@dataclass(frozen=True)
+class _GridInputs:
+    """The grid's checked inputs: everything :func:`run_grid` validates before building a model."""
+
+    models: list
+    dampings: list
+    signals: list
+    recordings: dict
+    calibrations: dict
+    out: Path | None
+    diagnosis: object
+    diagnosed_variant: int | None
+
+
+def _check_inputs(measured, models, dampings, signals, iterate, out_dir, control, calibrations,
+                  diagnosis) -> _GridInputs:
+    """Check every input of the grid and read the measured recordings (InputError on the first fault)."""
+    from exudyn_study.diagnose.fitted import diagnosis_variant, load_diagnosis
     from exudyn_study.model import VARIANTS
 
-    t_start = time.perf_counter()
-    beta = _check_positive("beta", beta)
-    rate_hz = _check_positive("rate_hz", rate_hz)
-    if not (isinstance(max_iter, int) and max_iter >= 0):
-        raise InputError(f"max_iter {max_iter!r}; expected an integer >= 0")
-    tol = _check_positive("tol", tol)
-    control = tuple(control)
     models = [int(m) if isinstance(m, (int, np.integer)) or str(m).isdigit() else m for m in models]
     bad = [m for m in models if m not in VARIANTS]
     if bad:
         raise InputError(f"model {bad[0]!r} is unknown; expected one of {list(VARIANTS)}")
-    from exudyn_study.diagnose.fitted import apply_diagnosis, diagnosis_variant, load_diagnosis
-
     diagnosed_variant = None
     if diagnosis is not None:
         diagnosis = load_diagnosis(diagnosis)
@@ -741,7 +364,11 @@ def _run_grid(measured, models, dampings, signals, iterate, out_dir, *, control,
             except InputError as exc:
                 raise InputError(f"{where}: {exc} (needed with iterate=False)") from None
         recs[s] = rec
+    return _GridInputs(models, dampings, signals, recs, calibrations, out, diagnosis, diagnosed_variant)
 
+
+def _default_builders(builder, probe_builder, mesh_size, cache_dir):
+    """Return the grid's model builders: the used-node Exudyn mesh, and the whole mesh for calibrations."""
     if builder is None:
         from exudyn_study.model import build_model
 
@@ -752,104 +379,153 @@ def _run_grid(measured, models, dampings, signals, iterate, out_dir, *, control,
         if probe_builder is None:
             def probe_builder(variant, damping):  # the calibration reads sensors at every mesh node
                 return build_model(variant, damping=damping, mesh_size=mesh_size, cache_dir=cache_dir)
-    probe_builder = probe_builder or builder
+    return builder, probe_builder or builder
 
-    notes: list[str] = []
-    need_target = "diagnosed" in dampings or any(
-        d in CALIBRATED and variant not in calibrations for d in dampings for variant in models)
-    if target is None and need_target:
-        if "white-noise" in recs:
-            t0 = time.perf_counter()
-            target = ema_target(recs["white-noise"])
-            say(f"EMA of the white-noise recording: {len(target)} modes "
-                f"({', '.join(f'{f:.1f}' for f in target.frequency_hz)} Hz) "
-                f"in {time.perf_counter() - t0:.1f} s")
-        else:
-            target = table1_target()
-            notes.append("no white-noise recording: the calibrated columns are calibrated on thesis Table 1 "
-                         "(frequencies only, no shapes)")
-            say(notes[-1])
 
-    def fitted(model):  # the body damping is calibrated: a modal_damping finding would scale it again
-        return apply_diagnosis(model, diagnosis, exclude=("modal_damping",))
+def _grid_target(target, recordings, notes, say):
+    """Return the calibrated columns' target modes: given, the white-noise EMA, or thesis Table 1."""
+    if target is not None:
+        return target
+    if "white-noise" in recordings:
+        t0 = time.perf_counter()
+        target = ema_target(recordings["white-noise"])
+        say(f"EMA of the white-noise recording: {len(target)} modes "
+            f"({', '.join(f'{f:.1f}' for f in target.frequency_hz)} Hz) "
+            f"in {time.perf_counter() - t0:.1f} s")
+        return target
+    notes.append("no white-noise recording: the calibrated columns are calibrated on thesis Table 1 "
+                 "(frequencies only, no shapes)")
+    say(notes[-1])
+    return table1_target()
 
-    plants: dict[tuple[int, str], ModelPlant] = {}
-    cal_results: dict[tuple[int, str], dict] = {}
 
-    def plant_for(variant: int, name: str) -> ModelPlant:
+class _Plants:
+    """Each (model, damping) of the grid built, calibrated where its column asks, and linearised once."""
+
+    def __init__(self, inputs: _GridInputs, target, builder, probe_builder, say) -> None:
+        self.inputs, self.target, self.say = inputs, target, say
+        self.builder, self.probe_builder = builder, probe_builder
+        self.plants: dict[tuple[int, str], ModelPlant] = {}
+        self.calibrations: dict[tuple[int, str], dict] = {}
+
+    def _fitted(self, model):
+        """Apply the diagnosis's findings but modal_damping (the body damping is calibrated instead)."""
+        from exudyn_study.diagnose.fitted import apply_diagnosis
+
+        return apply_diagnosis(model, self.inputs.diagnosis, exclude=("modal_damping",))
+
+    def __call__(self, variant: int, name: str) -> ModelPlant:
         key = (variant, name)
-        if key not in plants:
+        if key not in self.plants:
             t0 = time.perf_counter()
             diagnosed = name == "diagnosed"
-            if diagnosed or (name in CALIBRATED and variant not in calibrations):
-                probe = probe_builder(variant, "adams-default")
+            if diagnosed or (name in CALIBRATED and variant not in self.inputs.calibrations):
+                probe = self.probe_builder(variant, "adams-default")
                 if diagnosed:
-                    probe = fitted(probe)
-                cal = calibration_dict(calibrate_model(probe, target), probe, target)
-                cal_results[key] = cal
+                    probe = self._fitted(probe)
+                cal = calibration_dict(calibrate_model(probe, self.target), probe, self.target)
+                self.calibrations[key] = cal
                 spec = damping_from_calibration(cal)
             else:
-                spec = resolve_damping(variant, name, calibrations.get(variant))
-            model = builder(variant, spec)
-            plants[key] = ModelPlant(fitted(model) if diagnosed else model, label=name)
-            say(f"model {variant}, damping {name}: built and linearised in {time.perf_counter() - t0:.1f} s")
-        return plants[key]
+                spec = resolve_damping(variant, name, self.inputs.calibrations.get(variant))
+            model = self.builder(variant, spec)
+            self.plants[key] = ModelPlant(self._fitted(model) if diagnosed else model, label=name)
+            self.say(f"model {variant}, damping {name}: built and linearised in "
+                     f"{time.perf_counter() - t0:.1f} s")
+        return self.plants[key]
+
+
+def _run_cell(plant: ModelPlant, variant: int, name: str, signal: str, rec: Recording, names, iterate,
+              control, *, max_iter, tol, reg, beta, rate_hz) -> CellResult:
+    """One cell: the drive (iterated on the control sensors, or the measured one), the run, the damage."""
+    absent = [n for n in names if n not in rec.names]
+    if absent:
+        raise InputError(
+            f"measured recording for {signal!r} lacks compared channel(s) {', '.join(absent)}; "
+            "pass channels=... to compare a common subset")
+    t0 = time.perf_counter()
+    if iterate:
+        res = iterate_model_drive(plant, rec, control, max_iter=max_iter, tol=tol, reg=reg)
+        drive, errors, conv = res.drive, res.errors, res.converged
+    else:
+        from exudyn_study.signals.drives import resample
+        from exudyn_study.simulate.drive import OUTPUT_RATE_HZ
+
+        d = rec.drive
+        drive = d.data if d.sample_rate_hz == OUTPUT_RATE_HZ else resample(
+            d.data, d.sample_rate_hz, OUTPUT_RATE_HZ)
+        errors, conv = None, None
+    sim = plant.recording(drive, {"signal": signal, "drive": "iterated" if iterate else "measured"})
+    with warnings.catch_warnings():  # its notes stay on the damage; the grid's reading weighs them
+        warnings.simplefilter("ignore", UserWarning)
+        dmg = relative_pseudo_damage(sim, rec, beta=beta, channels=names, rate_hz=rate_hz)
+    return CellResult(variant, name, signal, dmg, errors, conv, time.perf_counter() - t0)
+
+
+def _write_grid_files(result: GridResult, out: Path, iterate: bool, calibrations: dict, target,
+                      plots: bool) -> list[Path]:
+    """Write the grid's tables, calibrations, target modes, pairing, reading and plots into ``out``."""
+    files = [result.write_csv(out / "damage_grid.csv")]
+    if iterate:
+        files.append(result.write_csv(out / "drive_iterations.csv", iterations=True))
+    for (m, d), cal in calibrations.items():
+        files.append(write_text_atomic(out / f"calibration_model{m}_{file_slug(d)}.json",
+                                       json.dumps(cal, indent=1), "calibration JSON"))
+    if target is not None:
+        files.append(write_modes_json(target, out / "calibration_target_modes.json"))
+    if calibrations:
+        files.append(write_text_atomic(out / "pairing.txt", result.pairing_report() + "\n", "pairing"))
+    files.append(write_text_atomic(out / "reading.txt", result.reading() + "\n", "grid reading"))
+    if plots:
+        files.extend(result.plot(out))
+    return files
+
+
+def _run_grid(measured, models, dampings, signals, iterate, out_dir, *, control, channels, beta, rate_hz,
+              max_iter, tol, reg, calibrations, target, diagnosis, builder, probe_builder, mesh_size,
+              cache_dir, plots, say) -> GridResult:
+    t_start = time.perf_counter()
+    beta = _check_positive("beta", beta)
+    rate_hz = _check_positive("rate_hz", rate_hz)
+    if not (isinstance(max_iter, int) and max_iter >= 0):
+        raise InputError(f"max_iter {max_iter!r}; expected an integer >= 0")
+    tol = _check_positive("tol", tol)
+    control = tuple(control)
+    inputs = _check_inputs(measured, models, dampings, signals, iterate, out_dir, control, calibrations,
+                           diagnosis)
+    builder, probe_builder = _default_builders(builder, probe_builder, mesh_size, cache_dir)
+    notes: list[str] = []
+    need_target = "diagnosed" in inputs.dampings or any(
+        d in CALIBRATED and variant not in inputs.calibrations
+        for d in inputs.dampings for variant in inputs.models)
+    if need_target:
+        target = _grid_target(target, inputs.recordings, notes, say)
+    plant_for = _Plants(inputs, target, builder, probe_builder, say)
 
     cells = []
-    for variant in models:
-        for name in dampings:
-            if name == "diagnosed" and diagnosed_variant not in (None, variant):
+    for variant in inputs.models:
+        for name in inputs.dampings:
+            if name == "diagnosed" and inputs.diagnosed_variant not in (None, variant):
                 notes.append(f"model {variant}: no diagnosed column (the diagnosis was made on model "
-                             f"{diagnosed_variant})")
+                             f"{inputs.diagnosed_variant})")
                 continue
             plant = plant_for(variant, name)
             names = list(channels) if channels is not None else [
                 n for n in plant.sensor_names if plant.model.sensors[n].sensor.direction == "Z"]
-            for s in signals:
-                rec = recs[s]
-                absent = [n for n in names if n not in rec.names]
-                if absent:
-                    raise InputError(
-                        f"measured recording for {s!r} lacks compared channel(s) {', '.join(absent)}; "
-                        "pass channels=... to compare a common subset")
-                t0 = time.perf_counter()
-                if iterate:
-                    res = iterate_model_drive(plant, rec, control, max_iter=max_iter, tol=tol, reg=reg)
-                    drive, errors, conv = res.drive, res.errors, res.converged
-                else:
-                    from exudyn_study.signals.drives import resample
-                    from exudyn_study.simulate.drive import OUTPUT_RATE_HZ
-
-                    d = rec.drive
-                    drive = d.data if d.sample_rate_hz == OUTPUT_RATE_HZ else resample(
-                        d.data, d.sample_rate_hz, OUTPUT_RATE_HZ)
-                    errors, conv = None, None
-                sim = plant.recording(drive, {"signal": s, "drive": "iterated" if iterate else "measured"})
-                with warnings.catch_warnings():  # its notes stay on dmg; the grid's reading weighs them
-                    warnings.simplefilter("ignore", UserWarning)
-                    dmg = relative_pseudo_damage(sim, rec, beta=beta, channels=names, rate_hz=rate_hz)
-                cell = CellResult(variant, name, s, dmg, errors, conv, time.perf_counter() - t0)
+            for s in inputs.signals:
+                cell = _run_cell(plant, variant, name, s, inputs.recordings[s], names, iterate, control,
+                                 max_iter=max_iter, tol=tol, reg=reg, beta=beta, rate_hz=rate_hz)
                 cells.append(cell)
-                r = 100 * dmg.ratios
+                r = 100 * cell.damage.ratios
+                runs = cell.iteration_errors
                 say(f"model {variant}, {name}, {s}: "
-                    + (f"{errors.shape[0]} runs, control error {100 * cell.final_error:.1f} %, "
-                       if errors is not None else "measured drive, ")
+                    + (f"{runs.shape[0]} runs, control error {100 * cell.final_error:.1f} %, "
+                       if runs is not None else "measured drive, ")
                     + f"relative damage median {np.nanmedian(r):.0f} % ({cell.wall_s:.1f} s)")
     result = GridResult(tuple(cells), control, beta, rate_hz, time.perf_counter() - t_start,
-                        calibrations=dict(cal_results), notes=tuple(dict.fromkeys(notes)))
-    if out is not None:
-        files = [result.write_csv(out / "damage_grid.csv")]
-        if iterate:
-            files.append(result.write_csv(out / "drive_iterations.csv", iterations=True))
-        for (m, d), cal in cal_results.items():
-            files.append(write_text_atomic(out / f"calibration_model{m}_{_slug(d)}.json",
-                                           json.dumps(cal, indent=1), "calibration JSON"))
-        if target is not None and need_target:
-            files.append(write_modes_json(target, out / "calibration_target_modes.json"))
-        if cal_results:
-            files.append(write_text_atomic(out / "pairing.txt", result.pairing_report() + "\n", "pairing"))
-        files.append(write_text_atomic(out / "reading.txt", result.reading() + "\n", "grid reading"))
-        if plots:
-            files.extend(result.plot(out))
+                        calibrations=dict(plant_for.calibrations), notes=tuple(dict.fromkeys(notes)))
+    if inputs.out is not None:
+        files = _write_grid_files(result, inputs.out, iterate, plant_for.calibrations,
+                                  target if need_target else None, plots)
         result = replace(result, wall_time_s=time.perf_counter() - t_start, files=tuple(files))
     return result
