@@ -102,23 +102,10 @@ __all__ = [
 log = logging.getLogger(__name__)
 
 
-
 # ---------------------------------------------------------------------------- the seam
 
 
 SystemBuilder = Callable[[Mapping[str, np.ndarray]], CalibrationSystem]
-
-
-# ---------------------------------------------------------------------------- design
-
-
-# ---------------------------------------------------------------------------- linearisation
-
-
-# ---------------------------------------------------------------------------- pairing
-
-
-# ---------------------------------------------------------------------------- result
 
 
 # ---------------------------------------------------------------------------- optimiser
@@ -197,28 +184,7 @@ def calibrate(
     with _single_threaded_blas():
         t_start = time.perf_counter()
         builder = None if isinstance(system, CalibrationSystem) else system
-        tf, tz, _, _ = _target_arrays(target, ())
-        prior_v = (
-            np.full(design.n_variables, float(np.mean(tz)))
-            if prior is None
-            else np.broadcast_to(np.asarray(prior, float), (design.n_variables,)).copy()
-        )
-        validate_ratios(prior_v, "prior damping ratio")
-        prior_v = np.clip(prior_v, design.lower, design.upper)
-        x_start = (
-            prior_v.copy()
-            if x0 is None
-            else validate_ratios(np.asarray(x0, float).ravel(), "start damping ratio")
-        )
-        if x_start.size != design.n_variables:
-            raise InputError(f"x0 has {x_start.size} values; the design has {design.n_variables} variables")
-        x_start = np.clip(x_start, design.lower, design.upper)
-        w_t = np.ones(tf.size) if weights is None else np.asarray(weights, float).ravel()
-        if w_t.size != tf.size or not np.all(np.isfinite(w_t)) or np.any(w_t < 0):
-            raise InputError(f"weights: expected {tf.size} finite values >= 0 (one per target mode)")
-        if regularization < 0 or not math.isfinite(regularization):
-            raise InputError(f"regularization={regularization!r}: expected a finite value >= 0")
-
+        prior_v, x_start, w_t = _checked_start(design, target, x0, prior, weights, regularization)
         if verify and hold:
             raise InputError("verify=True compares with Exudyn's eigenvalues of the system as built; "
                              "it cannot check a calibration with held sensors (hold=...)")
@@ -229,151 +195,29 @@ def calibrate(
         t_lin = time.perf_counter()
         lin = linearise_design(system, design).held(hold)
         t_lin = time.perf_counter() - t_lin
-        tf, tz, channels, t_shapes = _target_arrays(target, lin.sensor_names)
-        rows_idx = [lin.sensor_names.index(c) for c in channels]
-        band = (tf.min() / (1 + freq_tol), tf.max() * (1 + freq_tol))
-
-        def in_band(m: DesignModes) -> np.ndarray:
-            return np.flatnonzero((m.frequency_hz >= band[0]) & (m.frequency_hz <= band[1]))
-
-        def pair(m: DesignModes) -> tuple[np.ndarray, Pairing]:
-            band_idx = in_band(m)
-            shapes = m.shapes[rows_idx][:, band_idx] if t_shapes is not None else None
-            p = pair_modes(
-                m.frequency_hz[band_idx],
-                tf,
-                shapes,
-                t_shapes,
-                min_mac=mac_min,
-                max_frequency_error=freq_tol,
-                frequency_weight=freq_weight,
-            )
-            return band_idx, p
-
-        n_eval = 0
-        eval_time = 0.0
-        cache: dict[bytes, DesignModes] = {}
-
-        def evaluate(x) -> DesignModes:
-            nonlocal n_eval, eval_time
-            key = np.asarray(x, float).tobytes()
-            if key not in cache:
-                cache.clear()
-                t0 = time.perf_counter()
-                cache[key] = lin.modes(x, derivatives=True)
-                eval_time += time.perf_counter() - t0
-                n_eval += 1
-            return cache[key]
-
-        x = x_start
-        modes = evaluate(x)
-        band_idx, pairing = pair(modes)
-        if len(pairing) == 0:
-            raise InputError(
-                f"target: none of its {tf.size} modes ({tf.min():.3g}-{tf.max():.3g} Hz) "
-                "pairs with a model mode "
-                f"(model modes in {band[0]:.3g}-{band[1]:.3g} Hz: {band_idx.size}; mac_min={mac_min}, "
-                f"freq_tol={freq_tol}); is the target in the model's frequency band?"
-            )
-        alpha = float(regularization)
-        eye = np.eye(design.n_variables)
-        n_pairings = 0
-        message, success = "", False
-        seen: list[tuple] = []
-        while True:
-            n_pairings += 1
-            ref_vec = modes.vectors[:, band_idx[pairing.model_index]]
-            ref_f = modes.frequency_hz[band_idx[pairing.model_index]]
-            t_idx = pairing.target_index
-            wt = w_t[t_idx]
-
-            def tracked(m: DesignModes, ref_vec=ref_vec, ref_f=ref_f) -> np.ndarray:
-                macs = mac(ref_vec, m.vectors)
-                rel = np.abs(m.frequency_hz[None, :] - ref_f[:, None]) / ref_f[:, None]
-                _, cols = linear_sum_assignment((1.0 - macs) + freq_weight * rel)
-                return cols
-
-            def fun(xv, t_idx=t_idx, wt=wt, tracked=tracked):
-                m = evaluate(xv)
-                r = wt * (m.damping_ratio[tracked(m)] - tz[t_idx])
-                return np.concatenate([r, alpha * (xv - prior_v)]) if alpha > 0 else r
-
-            def jac(xv, wt=wt, tracked=tracked):
-                m = evaluate(xv)
-                j = wt[:, None] * m.d_damping[tracked(m)]
-                return np.vstack([j, alpha * eye]) if alpha > 0 else j
-
-            sol = least_squares(
-                fun,
-                x,
-                jac=jac,
-                bounds=(design.lower, design.upper),
-                method="trf",
-                ftol=1e-14,
-                xtol=1e-14,
-                gtol=1e-14,
-                max_nfev=max_evaluations,
-            )
-            x = sol.x
-            success, message = bool(sol.success), str(sol.message)
-            modes = evaluate(x)
-            tracked_cols = tracked(modes)
-            band_idx, new = pair(modes)
-            key = (tuple(band_idx[new.model_index]), tuple(new.target_index))
-            old = (tuple(tracked_cols), tuple(t_idx))
-            if key == old or n_pairings >= max_pairings or key in seen:
-                pairing = new
-                break
-            log.info("re-pairing after solve %d: %s -> %s", n_pairings, old, key)
-            seen.append(old)
-            pairing = new
-
-        # ---- table
-        rows: list[ModeRow] = []
-        paired_by_model = dict(zip(pairing.model_index.tolist(), range(len(pairing)), strict=True))
-        for j, mi in enumerate(band_idx):
-            f_m, z_m = float(modes.frequency_hz[mi]), float(modes.damping_ratio[mi])
-            if j in paired_by_model:
-                p = paired_by_model[j]
-                ti = int(pairing.target_index[p])
-                rows.append(
-                    ModeRow(
-                        j + 1, f_m, z_m, float(tf[ti]), float(tz[ti]), _f(pairing.mac[p]), z_m - float(tz[ti])
-                    )
-                )
-            else:
-                rows.append(ModeRow(j + 1, f_m, z_m, None, None, None, None))
-        for ti in pairing.unpaired_target:
-            rows.append(ModeRow(None, None, None, float(tf[ti]), float(tz[ti]), None, None))
-        rows.sort(key=lambda r: r.frequency_hz if r.frequency_hz is not None else r.target_frequency_hz)
-
+        pairer = _Pairer(target, lin.sensor_names, mac_min, freq_tol, freq_weight)
+        evaluate = _Evaluations(lin)
+        x, modes, band_idx, pairing, n_pairings, success, message = _solve(
+            evaluate, pairer, design, x_start, prior_v, w_t, float(regularization), max_pairings,
+            max_evaluations)
+        rows = _mode_rows(modes, band_idx, pairing, pairer.tf, pairer.tz)
         ratios = design.ratios(np.clip(x, design.lower, design.upper))
         check = None
         if verify:
             if builder is None:
                 raise InputError("verify=True needs a builder (a callable), not an already built system")
-            f_ex, z_ex = exudyn_damped_modes(builder(ratios).mbs)
-            diffs = []
-            for mi in band_idx:
-                k = int(
-                    np.argmin(
-                        np.abs(f_ex - modes.frequency_hz[mi]) / modes.frequency_hz[mi]
-                        + np.abs(z_ex - modes.damping_ratio[mi])
-                    )
-                )
-                diffs.append(abs(z_ex[k] - modes.damping_ratio[mi]))
-            check = float(max(diffs)) if diffs else None
+            check = _exudyn_damping_check(builder(ratios).mbs, modes, band_idx)
         settings = {
-            "regularization": alpha,
+            "regularization": float(regularization),
             "prior": prior_v.tolist(),
             "mac_min": mac_min,
             "freq_tol": freq_tol,
             "freq_weight": freq_weight,
-            "band_hz": list(band),
-            "channels": list(channels),
+            "band_hz": list(pairer.band),
+            "channels": list(pairer.channels),
             "n_coordinates": lin.size,
             "n_variables": design.n_variables,
-            "n_targets": int(tf.size),
+            "n_targets": int(pairer.tf.size),
             "held_sensors": list(hold),
         }
         result = CalibrationResult(
@@ -385,11 +229,11 @@ def calibrate(
             design_mask={b: a >= 0 for b, a in design.assignment.items()},
             success=success,
             message=message,
-            n_evaluations=n_eval,
+            n_evaluations=evaluate.count,
             n_pairings=n_pairings,
             wall_time_s=time.perf_counter() - t_start,
             linearise_time_s=t_lin,
-            evaluation_time_s=eval_time / max(n_eval, 1),
+            evaluation_time_s=evaluate.seconds / max(evaluate.count, 1),
             exudyn_check=check,
             settings=settings,
         )
@@ -397,10 +241,186 @@ def calibrate(
             "calibration: %d paired, max error %.2e, %d evaluations, %.2f s",
             len(result.paired),
             result.max_abs_error,
-            n_eval,
+            evaluate.count,
             result.wall_time_s,
         )
         return result
+
+
+def _checked_start(design: DampingDesign, target: ModalModel, x0, prior, weights, regularization):
+    """Return the prior, the start (both clipped to the bounds) and the per-target weights, checked."""
+    _, tz, _, _ = _target_arrays(target, ())
+    prior_v = (
+        np.full(design.n_variables, float(np.mean(tz)))
+        if prior is None
+        else np.broadcast_to(np.asarray(prior, float), (design.n_variables,)).copy()
+    )
+    validate_ratios(prior_v, "prior damping ratio")
+    prior_v = np.clip(prior_v, design.lower, design.upper)
+    x_start = (
+        prior_v.copy()
+        if x0 is None
+        else validate_ratios(np.asarray(x0, float).ravel(), "start damping ratio")
+    )
+    if x_start.size != design.n_variables:
+        raise InputError(f"x0 has {x_start.size} values; the design has {design.n_variables} variables")
+    x_start = np.clip(x_start, design.lower, design.upper)
+    w_t = np.ones(tz.size) if weights is None else np.asarray(weights, float).ravel()
+    if w_t.size != tz.size or not np.all(np.isfinite(w_t)) or np.any(w_t < 0):
+        raise InputError(f"weights: expected {tz.size} finite values >= 0 (one per target mode)")
+    if regularization < 0 or not math.isfinite(regularization):
+        raise InputError(f"regularization={regularization!r}: expected a finite value >= 0")
+    return prior_v, x_start, w_t
+
+
+class _Pairer:
+    """Pairs the model's modes in the target's band with the target modes (MAC at shared sensors)."""
+
+    def __init__(self, target: ModalModel, sensor_names, mac_min, freq_tol, freq_weight) -> None:
+        self.tf, self.tz, self.channels, self.shapes = _target_arrays(target, sensor_names)
+        self.rows = [list(sensor_names).index(c) for c in self.channels]
+        self.band = (self.tf.min() / (1 + freq_tol), self.tf.max() * (1 + freq_tol))
+        self.mac_min, self.freq_tol, self.freq_weight = mac_min, freq_tol, freq_weight
+
+    def __call__(self, m: DesignModes) -> tuple[np.ndarray, Pairing]:
+        band_idx = np.flatnonzero((m.frequency_hz >= self.band[0]) & (m.frequency_hz <= self.band[1]))
+        shapes = m.shapes[self.rows][:, band_idx] if self.shapes is not None else None
+        p = pair_modes(
+            m.frequency_hz[band_idx],
+            self.tf,
+            shapes,
+            self.shapes,
+            min_mac=self.mac_min,
+            max_frequency_error=self.freq_tol,
+            frequency_weight=self.freq_weight,
+        )
+        return band_idx, p
+
+
+class _Evaluations:
+    """The damped modes with derivatives at one design point, the last one kept, counted and timed."""
+
+    def __init__(self, lin) -> None:
+        self.lin = lin
+        self.count = 0
+        self.seconds = 0.0
+        self._key: bytes | None = None
+        self._modes: DesignModes | None = None
+
+    def __call__(self, x) -> DesignModes:
+        key = np.asarray(x, float).tobytes()
+        if key != self._key:
+            t0 = time.perf_counter()
+            self._modes = self.lin.modes(x, derivatives=True)
+            self.seconds += time.perf_counter() - t0
+            self.count += 1
+            self._key = key
+        return self._modes
+
+
+def _solve(evaluate: _Evaluations, pair: _Pairer, design: DampingDesign, x_start, prior_v, w_t,
+           alpha: float, max_pairings: int, max_evaluations: int):
+    """Least squares on the paired modes' damping, re-paired after each solve until the pairing holds.
+
+    Returns the design point, its modes, the band's mode indices, the final pairing, the number
+    of solves, and the last solve's success and message.
+    """
+    x = x_start
+    modes = evaluate(x)
+    band_idx, pairing = pair(modes)
+    tf, tz = pair.tf, pair.tz
+    if len(pairing) == 0:
+        raise InputError(
+            f"target: none of its {tf.size} modes ({tf.min():.3g}-{tf.max():.3g} Hz) "
+            "pairs with a model mode "
+            f"(model modes in {pair.band[0]:.3g}-{pair.band[1]:.3g} Hz: {band_idx.size}; "
+            f"mac_min={pair.mac_min}, freq_tol={pair.freq_tol}); is the target in the model's frequency band?"
+        )
+    eye = np.eye(design.n_variables)
+    n_pairings = 0
+    message, success = "", False
+    seen: list[tuple] = []
+    while True:
+        n_pairings += 1
+        ref_vec = modes.vectors[:, band_idx[pairing.model_index]]
+        ref_f = modes.frequency_hz[band_idx[pairing.model_index]]
+        t_idx = pairing.target_index
+        wt = w_t[t_idx]
+
+        def tracked(m: DesignModes, ref_vec=ref_vec, ref_f=ref_f) -> np.ndarray:
+            # the paired modes followed by the MAC of their full eigenvectors (frequencies may cross)
+            macs = mac(ref_vec, m.vectors)
+            rel = np.abs(m.frequency_hz[None, :] - ref_f[:, None]) / ref_f[:, None]
+            _, cols = linear_sum_assignment((1.0 - macs) + pair.freq_weight * rel)
+            return cols
+
+        def fun(xv, t_idx=t_idx, wt=wt, tracked=tracked):
+            m = evaluate(xv)
+            r = wt * (m.damping_ratio[tracked(m)] - tz[t_idx])
+            return np.concatenate([r, alpha * (xv - prior_v)]) if alpha > 0 else r
+
+        def jac(xv, wt=wt, tracked=tracked):
+            m = evaluate(xv)
+            j = wt[:, None] * m.d_damping[tracked(m)]
+            return np.vstack([j, alpha * eye]) if alpha > 0 else j
+
+        sol = least_squares(
+            fun,
+            x,
+            jac=jac,
+            bounds=(design.lower, design.upper),
+            method="trf",
+            ftol=1e-14,
+            xtol=1e-14,
+            gtol=1e-14,
+            max_nfev=max_evaluations,
+        )
+        x = sol.x
+        success, message = bool(sol.success), str(sol.message)
+        modes = evaluate(x)
+        tracked_cols = tracked(modes)
+        band_idx, new = pair(modes)
+        key = (tuple(band_idx[new.model_index]), tuple(new.target_index))
+        old = (tuple(tracked_cols), tuple(t_idx))
+        if key == old or n_pairings >= max_pairings or key in seen:
+            return x, modes, band_idx, new, n_pairings, success, message
+        log.info("re-pairing after solve %d: %s -> %s", n_pairings, old, key)
+        seen.append(old)
+        pairing = new
+
+
+def _mode_rows(modes: DesignModes, band_idx, pairing: Pairing, tf, tz) -> list[ModeRow]:
+    """One row per model mode in the band (with its target partner) and per unpaired target mode."""
+    rows: list[ModeRow] = []
+    paired_by_model = dict(zip(pairing.model_index.tolist(), range(len(pairing)), strict=True))
+    for j, mi in enumerate(band_idx):
+        f_m, z_m = float(modes.frequency_hz[mi]), float(modes.damping_ratio[mi])
+        if j in paired_by_model:
+            p = paired_by_model[j]
+            ti = int(pairing.target_index[p])
+            z_t = float(tz[ti])
+            rows.append(ModeRow(j + 1, f_m, z_m, float(tf[ti]), z_t, _f(pairing.mac[p]), z_m - z_t))
+        else:
+            rows.append(ModeRow(j + 1, f_m, z_m, None, None, None, None))
+    for ti in pairing.unpaired_target:
+        rows.append(ModeRow(None, None, None, float(tf[ti]), float(tz[ti]), None, None))
+    rows.sort(key=lambda r: r.frequency_hz if r.frequency_hz is not None else r.target_frequency_hz)
+    return rows
+
+
+def _exudyn_damping_check(mbs, modes: DesignModes, band_idx) -> float | None:
+    """Largest damping difference between the band's modes and Exudyn's own damped eigenvalues."""
+    f_ex, z_ex = exudyn_damped_modes(mbs)
+    diffs = []
+    for mi in band_idx:
+        k = int(
+            np.argmin(
+                np.abs(f_ex - modes.frequency_hz[mi]) / modes.frequency_hz[mi]
+                + np.abs(z_ex - modes.damping_ratio[mi])
+            )
+        )
+        diffs.append(abs(z_ex[k] - modes.damping_ratio[mi]))
+    return float(max(diffs)) if diffs else None
 
 
 # ---------------------------------------------------------------------------- rig adapter
