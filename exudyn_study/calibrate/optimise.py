@@ -421,7 +421,3 @@ def _exudyn_damping_check(mbs, modes: DesignModes, band_idx) -> float | None:
         )
         diffs.append(abs(z_ex[k] - modes.damping_ratio[mi]))
     return float(max(diffs)) if diffs else None
-
-
-# ---------------------------------------------------------------------------- rig adapter
-
