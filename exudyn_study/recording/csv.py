@@ -186,14 +186,46 @@ def read_csv(
     names = [c.name for c in columns]
     if len(set(names)) != len(names):
         raise InputError(f"column map: channel names {names} repeat; give every channel its own name")
+    lines, delimiter, header, width = _data_lines(path, delimiter)
+    idx = [_column_index(path, header, width, c.column, f"channel {c.name!r}") for c in columns]
+    t_idx = None if time_column is None else _column_index(path, header, width, time_column, "time")
+    data, times = _parse_rows(path, lines, delimiter, width, columns, idx, t_idx)
+    if sample_rate_hz is None:
+        sample_rate_hz = _rate_from_times(path, times, time_column)
+    if not (math.isfinite(float(sample_rate_hz)) and float(sample_rate_hz) > 0):
+        raise InputError(f"sample_rate_hz {sample_rate_hz!r}; expected a positive rate in Hz")
+    if not any(c.role == "drive" for c in columns) or all(c.role == "drive" for c in columns):
+        raise InputError(
+            f"column map of {str(path)!r}: {sum(c.role == 'drive' for c in columns)} drive column(s) among "
+            f"{len(columns)}; map the excitation with role 'drive' and at least one response"
+        )
+    chans = tuple(
+        Channel(
+            c.name,
+            c.quantity,
+            QUANTITY_UNITS[c.quantity],
+            c.direction,
+            c.position_m,
+            float(sample_rate_hz),
+            data[:, k] * UNIT_FACTORS[c.unit][1],
+            role=c.role,
+        )
+        for k, c in enumerate(columns)
+    )
+    meta = {"source": path.name}
+    meta.update(metadata or {})
+    return Recording(chans, meta)
+
+
+def _data_lines(path: Path, delimiter: str | None):
+    """Return the numbered data lines, the delimiter, the header (None: none) and the column count."""
     lines = [(i + 1, ln) for i, ln in enumerate(path.read_text(errors="replace").splitlines())]
     lines = [(i, ln) for i, ln in lines if ln.strip() and not ln.lstrip().startswith("#")]
     if not lines:
         raise InputError(f"CSV file {str(path)!r} holds no data rows")
     if delimiter is None:
-        suffix = path.suffix.lower()
         head = lines[0][1]
-        if suffix == ".csv":
+        if path.suffix.lower() == ".csv":
             delimiter = ";" if head.count(";") > head.count(",") else ","
         elif "\t" in head:
             delimiter = "\t"
@@ -203,26 +235,31 @@ def read_csv(
         header = None
     except ValueError:
         header, lines = first, lines[1:]
+    if len(lines) < 2:
+        raise InputError(f"CSV file {str(path)!r}: {len(lines)} data row(s); expected a time series")
+    return lines, delimiter, header, len(first)
 
-    def index_of(col, what: str) -> int:
-        if isinstance(col, int):
-            if not 0 <= col < len(first):
-                raise InputError(
-                    f"CSV file {str(path)!r}: {what} column index {col} is missing (the file has "
-                    f"{len(first)} columns, 0-{len(first) - 1}); map an existing column"
-                )
-            return col
-        if header is None or col not in header:
-            have = ", ".join(header) if header else "no header row"
+
+def _column_index(path: Path, header, width: int, col, what: str) -> int:
+    """Return the 0-based index of a column given by name (in the header) or by index."""
+    if isinstance(col, int):
+        if not 0 <= col < width:
             raise InputError(
-                f"CSV file {str(path)!r}: {what} column {col!r} is missing (columns: {have}); "
-                "map an existing column by name or 0-based index"
+                f"CSV file {str(path)!r}: {what} column index {col} is missing (the file has "
+                f"{width} columns, 0-{width - 1}); map an existing column"
             )
-        return header.index(col)
+        return col
+    if header is None or col not in header:
+        have = ", ".join(header) if header else "no header row"
+        raise InputError(
+            f"CSV file {str(path)!r}: {what} column {col!r} is missing (columns: {have}); "
+            "map an existing column by name or 0-based index"
+        )
+    return header.index(col)
 
-    idx = [index_of(c.column, f"channel {c.name!r}") for c in columns]
-    t_idx = None if time_column is None else index_of(time_column, "time")
-    width = len(first)
+
+def _parse_rows(path: Path, lines, delimiter, width: int, columns, idx, t_idx):
+    """Return the mapped columns as numbers (rows x channels) and the time column (None: not mapped)."""
     data = np.empty((len(lines), len(idx)))
     times = np.empty(len(lines)) if t_idx is not None else None
     for r, (lineno, ln) in enumerate(lines):
@@ -247,41 +284,20 @@ def read_csv(
                 raise InputError(
                     f"CSV file {str(path)!r} line {lineno}: time value {cells[t_idx]!r} is not a number"
                 ) from None
-    if len(lines) < 2:
-        raise InputError(f"CSV file {str(path)!r}: {len(lines)} data row(s); expected a time series")
-    if sample_rate_hz is None:
-        if times is None:
-            raise InputError(
-                f"CSV file {str(path)!r}: no sample rate; give sample_rate_hz (--rate) or a time column"
-            )
-        dt = np.diff(times)
-        step = float(np.median(dt))
-        if not step > 0 or np.max(np.abs(dt - step)) > 1e-3 * step:
-            raise InputError(
-                f"CSV file {str(path)!r}: time column {time_column!r} is not equidistant (steps "
-                f"{dt.min():.6g}-{dt.max():.6g} s); resample the data or give --rate"
-            )
-        sample_rate_hz = 1.0 / step
-    if not (math.isfinite(float(sample_rate_hz)) and float(sample_rate_hz) > 0):
-        raise InputError(f"sample_rate_hz {sample_rate_hz!r}; expected a positive rate in Hz")
-    if not any(c.role == "drive" for c in columns) or all(c.role == "drive" for c in columns):
+    return data, times
+
+
+def _rate_from_times(path: Path, times, time_column) -> float:
+    """Return the sample rate of an equidistant time column."""
+    if times is None:
         raise InputError(
-            f"column map of {str(path)!r}: {sum(c.role == 'drive' for c in columns)} drive column(s) among "
-            f"{len(columns)}; map the excitation with role 'drive' and at least one response"
+            f"CSV file {str(path)!r}: no sample rate; give sample_rate_hz (--rate) or a time column"
         )
-    chans = tuple(
-        Channel(
-            c.name,
-            c.quantity,
-            QUANTITY_UNITS[c.quantity],
-            c.direction,
-            c.position_m,
-            float(sample_rate_hz),
-            data[:, k] * UNIT_FACTORS[c.unit][1],
-            role=c.role,
+    dt = np.diff(times)
+    step = float(np.median(dt))
+    if not step > 0 or np.max(np.abs(dt - step)) > 1e-3 * step:
+        raise InputError(
+            f"CSV file {str(path)!r}: time column {time_column!r} is not equidistant (steps "
+            f"{dt.min():.6g}-{dt.max():.6g} s); resample the data or give --rate"
         )
-        for k, c in enumerate(columns)
-    )
-    meta = {"source": path.name}
-    meta.update(metadata or {})
-    return Recording(chans, meta)
+    return 1.0 / step
