@@ -9,12 +9,12 @@ truth. Only the scorer reads the truth.
 Pools (``--pool``):
 
 - ``wide`` (default): :func:`exudyn_study.virtual_rig.wide_scenario`, one or two effects (two in
-  about 40 %) from :data:`~exudyn_study.virtual_rig.WIDE_EFFECTS`: structural effects at every sensor
-  point and frame interface (a mass, a tuned mass-damper, the drive linkage, a rear support),
-  sensor faults (gain, polarity, swapped channels, a dead channel, a delay) and a dashpot to ground,
-  for which the diagnosis has no candidate (outside the catalogue); ``--held-back`` draws from the
-  seed range kept for the final score (:data:`~exudyn_study.virtual_rig.HELD_BACK_SEED`), reported
-  under its own case name;
+  40 %) from :data:`~exudyn_study.virtual_rig.WIDE_EFFECTS`: a mass or a tuned mass-damper anywhere on
+  the surface of the chassis's parts (:data:`~exudyn_study.virtual_rig.SURFACE_REGIONS`), the drive
+  linkage, a rear support, sensor faults (gain, polarity, swapped channels, a dead channel, a delay)
+  and a dashpot to ground anywhere on those surfaces, for which the diagnosis has no candidate
+  (outside the catalogue); ``--held-back`` draws from the seed range kept for the final score
+  (:data:`~exudyn_study.virtual_rig.HELD_BACK_SEED`), reported under its own case name;
 - ``classic``: :func:`exudyn_study.virtual_rig.random_scenario` (one effect of the original five).
 
 Scores, per truth effect (a finding matched to it):

@@ -111,10 +111,14 @@ def test_water_included_and_assembly_mass_is_sum_of_components():
 
 
 def test_rig_interfaces_of_assembly():
+    from exudyn_study.virtual_rig import SURFACE_REGIONS
+
     for jm in ("simple", "detailed"):
         geo = chassis_geometry(ChassisDesign(joint_model=jm))
         assert {i.name for i in geo.interfaces} == RIG
         assert all(i.kind == "rig" for i in geo.interfaces)
+        # the wide blind pool's places are parts of the assembly
+        assert set(SURFACE_REGIONS) <= {p.region for p in geo.parts}
 
 
 def test_component_interfaces_coincide_across_split():

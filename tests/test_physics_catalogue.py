@@ -195,3 +195,28 @@ def test_drive_linkage_compliance_adds_the_linkage_mode_the_frf_shows(bodies, no
     band = (f > 15) & (f < 27)
     assert f[band][np.argmax(h[band])] == pytest.approx(f_new, abs=0.3)
     assert ratio[f < 5.0] == pytest.approx(1.0, abs=0.1)  # the spring carries the static drive
+
+
+def test_a_surface_place_is_a_surface_node_of_its_region(bodies):
+    """'body@region:u' names the region's surface node at fraction u, on every model of the same body."""
+    from exudyn_study.physics.entries import location_point, surface_node
+
+    model = _model(bodies)
+    flexible = model.bodies["chassis"].body
+    region = sorted(flexible.region_nodes)[0]
+    surface = set(np.asarray(flexible.surface_triangles).ravel().tolist())
+    in_region = set(np.asarray(flexible.region_nodes[region]).tolist())
+    nodes = [surface_node(model, f"chassis@{region}:{u}")[1] for u in (0.0, 0.3, 0.7, 0.999)]
+    assert all(n in surface and n in in_region for n in nodes)
+    assert len(set(nodes)) == 4  # fractions spread over the region
+    assert surface_node(_model(bodies), f"chassis@{region}:0.3")[1] == nodes[1]
+    _, pos = location_point(model, f"chassis@{region}:0.3")
+    offset = model.bodies["chassis"].position_m
+    assert np.allclose(pos, np.asarray(flexible.node_positions_m[nodes[1]]) + offset)
+    for bad in (f"chassis@{region}:1.0", f"chassis@{region}:-0.1", "chassis@no_such_region:0.5",
+                f"nobody@{region}:0.5", f"chassis@{region}:half"):
+        assert surface_node(model, bad) is None
+        with pytest.raises(InputError, match=r"location .*: expected .*'body@region:u'"):
+            entry("added_mass").apply(_model(bodies), bad)
+    applied = entry("added_mass").apply(model, f"chassis@{region}:0.3", mass_kg=2.0)
+    assert applied.parameters["mass_kg"] == 2.0

@@ -131,7 +131,7 @@ def test_wide_blind_scenarios_mix_effects_and_keep_a_held_back_range():
     """The wide pool draws every effect kind, two effects in at least 30 % of the scenarios (never two
     sensor faults, never at one place), reproducibly; the held-back seed range draws other scenarios."""
     from exudyn_study.physics import CATALOGUE
-    from exudyn_study.virtual_rig import HELD_BACK_SEED, WIDE_EFFECTS, wide_scenario
+    from exudyn_study.virtual_rig import HELD_BACK_SEED, SURFACE_REGIONS, WIDE_EFFECTS, wide_scenario
 
     assert set(WIDE_EFFECTS) <= set(CATALOGUE)
     dev = [wide_scenario(i) for i in range(60)]
@@ -144,6 +144,12 @@ def test_wide_blind_scenarios_mix_effects_and_keep_a_held_back_range():
         assert a.location is None or a.location != b.location
     drawn = {a.physics for sc in dev for a in sc.augmentations}
     assert drawn == set(WIDE_EFFECTS)
+    # point effects anywhere on the parts' surfaces, not at the sensors the diagnosis knows
+    points = [a for sc in dev for a in sc.augmentations
+              if a.physics in ("added_mass", "tuned_mass_damper", "ground_spring_damper")]
+    regions = [a.location.split("@")[1].rsplit(":", 1)[0] for a in points]
+    assert all(a.location.startswith("chassis@") for a in points) and set(regions) <= set(SURFACE_REGIONS)
+    assert len(set(regions)) >= 8
     for sc in dev[:20]:
         sc.validate()
     held = [wide_scenario(i, rng_seed=HELD_BACK_SEED) for i in range(20)]

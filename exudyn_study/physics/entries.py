@@ -24,10 +24,12 @@ __all__ = [
     "TUNED_MASS_DAMPER",
     "GROUND_SPRING_DAMPER",
     "location_point",
+    "surface_node",
 ]
 
 _EXPECTED = ("a sensor name of the model (e.g. 'ARFVZ'), an interface 'body.interface' "
-             "(e.g. 'chassis.front_strut') or a mesh node 'body#node' (e.g. 'chassis#1234')")
+             "(e.g. 'chassis.front_strut'), a mesh node 'body#node' (e.g. 'chassis#1234') or a surface "
+             "place 'body@region:u' (e.g. 'chassis@cross_member_3:0.42')")
 
 
 def _mesh_node(model, location: str):
@@ -37,6 +39,46 @@ def _mesh_node(model, location: str):
         return None
     n_nodes = len(model.bodies[body].body.node_positions_m)
     return (body, int(node)) if int(node) < n_nodes else None
+
+
+def surface_node(model, location: str):
+    """(body, node) of a surface place ``'body@region:u'``, else None.
+
+    The place is the surface node of the body's mesh region ``region`` at fraction ``u`` (in
+    [0, 1)) of that region's surface nodes in index order: a reproducible way to name "somewhere
+    on this part" without knowing the mesh, so a drawn ``u`` picks a node uniformly over the
+    region's surface. The same place names the same node on every model built from the same body.
+
+    Parameters
+    ----------
+    model : exudyn_study.model.Model
+    location : str
+        ``'body@region:u'``.
+
+    Returns
+    -------
+    tuple (str, int) or None
+        The body name and its mesh node; None when ``location`` is not of that form or names no
+        surface node.
+    """
+    body, sep, rest = location.partition("@")
+    region, sep2, fraction = rest.rpartition(":")
+    if not (sep and sep2) or body not in model.bodies:
+        return None
+    try:
+        u = float(fraction)
+    except ValueError:
+        return None
+    if not 0.0 <= u < 1.0:
+        return None
+    flexible = model.bodies[body].body
+    nodes = getattr(flexible, "region_nodes", {}).get(region)
+    if nodes is None:
+        return None
+    on_surface = np.intersect1d(np.asarray(nodes), np.asarray(flexible.surface_triangles).ravel())
+    if on_surface.size == 0:
+        return None
+    return body, int(on_surface[int(u * on_surface.size)])
 
 
 def _find_interface(model, location: str):
@@ -55,6 +97,9 @@ def _check_point_location(model, location) -> str:
             return key
         if _mesh_node(model, location) is not None:
             return location
+        node = surface_node(model, location)
+        if node is not None:
+            return f"{node[0]}#{node[1]}"
     raise InputError(f"location {location!r}: expected {_EXPECTED}; this model has sensors "
                      f"{list(model.sensors)} "
                      f"and interfaces {sorted(model.interfaces)}")
@@ -67,8 +112,8 @@ def location_point(model, location: str) -> tuple[int, np.ndarray]:
     ----------
     model : exudyn_study.model.Model
     location : str
-        A sensor name (its mesh node), an interface key ``'body.interface'`` or a mesh node
-        ``'body#node'``.
+        A sensor name (its mesh node), an interface key ``'body.interface'``, a mesh node
+        ``'body#node'`` or a surface place ``'body@region:u'`` (:func:`surface_node`).
 
     Returns
     -------

@@ -18,6 +18,7 @@ from exudyn_study.virtual_rig.scenarios import (
     BLIND_EFFECTS,
     HELD_BACK_SEED,
     SCENARIOS,
+    SURFACE_REGIONS,
     WIDE_EFFECTS,
     random_scenario,
     register_scenario,
@@ -41,6 +42,7 @@ __all__ = [
     "wide_scenario",
     "WIDE_EFFECTS",
     "HELD_BACK_SEED",
+    "SURFACE_REGIONS",
     "register_scenario",
     "scenario",
 ]

@@ -21,9 +21,10 @@ one single-effect scenario per catalogue entry
 
 :func:`random_scenario` draws a blind scenario (effect, location, parameter value within
 the entry's bounds, seed) for the diagnosis benchmark; its name says nothing about the
-effect. :func:`wide_scenario` draws from a wider pool (:data:`WIDE_EFFECTS`: structural effects
-at every sensor point and frame interface, sensor faults including polarity and swaps, physics
-the diagnosis has no candidate for), with two effects at once in :data:`WIDE_TWO_EFFECT_SHARE`
+effect. :func:`wide_scenario` draws from a wider pool (:data:`WIDE_EFFECTS`: point effects
+anywhere on the surface of the chassis's parts (:data:`SURFACE_REGIONS`), the drive linkage and
+the rear supports, sensor faults including polarity and swaps, physics the diagnosis has no
+candidate for), with two effects at once in :data:`WIDE_TWO_EFFECT_SHARE`
 of the scenarios; :data:`HELD_BACK_SEED` draws a range kept for the final score.
 """
 
@@ -53,6 +54,7 @@ __all__ = [
     "WIDE_TWO_EFFECT_SHARE",
     "DEVELOPMENT_SEED",
     "HELD_BACK_SEED",
+    "SURFACE_REGIONS",
 ]
 
 
@@ -321,20 +323,29 @@ _BLIND_FIXED = {("modal_damping", "max_frequency_hz"): 200.0}
 _BLIND_RATIO = {("modal_damping", "factor"), ("sensor_gain", "gain")}
 
 
-#: Model-1 places of point effects: every sensor point and frame interface (thesis sensor table)
-_POINTS = (
-    "ARFVZ", "ARFHZ", "ARFMZ", "AVBFZ", "ARVBZ", "ARHBZ", "ATVBZ", "ATHBZ", "ATVFX", "ATHFX", "ASVZ",
-    "ASHZ", "ASVX", "chassis.front_strut",
+#: Model-1 places of point effects: the outer surface of every part of the chassis body a mass, an
+#: absorber or a dashpot can be fixed to (the side members' channels, the front plate, the cross
+#: members, the tank shells and brackets, the mudguard brackets). Left out: the rig pads (their faces
+#: are the rig's), the bolts and the rubber pad (joint hardware) and the tank baffles (inside the
+#: tanks). A place is ``'chassis@region:u'``, a surface node drawn uniformly over the region
+#: (:func:`exudyn_study.physics.entries.surface_node`).
+SURFACE_REGIONS = (
+    "side_member_left_outer", "side_member_right_outer", "side_member_left_inner",
+    "side_member_right_inner", "front_plate", "cross_member_1", "cross_member_2", "cross_member_3",
+    "cross_member_4", "tank_left_shell", "tank_right_shell", "tank_left_brackets", "tank_right_brackets",
+    "bracket_left_mount", "bracket_left_arm", "bracket_right_arm",
 )
+#: marks an effect whose place is drawn on :data:`SURFACE_REGIONS`
+_SURFACE = ("surface",)
 _CHANNELS = ("ARFVZ", "ARFMZ", "ARHBZ", "ARVBZ", "AVBFZ", "ATVBZ", "ATHBZ", "ASVZ", "ASHZ")
 
 #: effects of :func:`wide_scenario`: entry -> (places, {parameter: (low, high)} drawn log-uniformly
 #: (a parameter not listed keeps its default), kind). Kinds: 'structure' (a catalogue candidate
 #: exists), 'sensor' (an acquisition fault), 'outside' (no candidate: the generic local element)
 WIDE_EFFECTS = {
-    "added_mass": (_POINTS, {"mass_kg": (5.0, 30.0)}, "structure"),
+    "added_mass": (_SURFACE, {"mass_kg": (5.0, 30.0)}, "structure"),
     "tuned_mass_damper": (
-        _POINTS,
+        _SURFACE,
         {"mass_kg": (3.0, 12.0), "frequency_hz": (8.0, 45.0), "damping_ratio": (0.03, 0.15)},
         "structure",
     ),
@@ -351,12 +362,12 @@ WIDE_EFFECTS = {
                     {}, "sensor"),
     "sensor_dead": (_CHANNELS, {}, "sensor"),
     "sensor_delay": (_CHANNELS, {"delay_s": (0.002, 0.008)}, "sensor"),
-    "ground_spring_damper": (_POINTS, {"damping_n_s_per_m": (1e3, 6e3)}, "outside"),
+    "ground_spring_damper": (_SURFACE, {"damping_n_s_per_m": (1e3, 6e3)}, "outside"),
 }
 #: parameters of a wide effect fixed, not drawn (a dashpot to ground: no spring)
 _WIDE_FIXED = {("ground_spring_damper", "stiffness_n_per_m"): 0.0}
-#: share of :func:`wide_scenario` draws with two effects (a structural effect with a sensor fault, or
-#: two at different places)
+#: share of :func:`wide_scenario` scenarios with two effects (a structural effect with a sensor fault,
+#: or two at different places): exactly this share of any run of consecutive indices
 WIDE_TWO_EFFECT_SHARE = 0.4
 #: seeds of the draws used while developing, and of the held-back range reported separately
 DEVELOPMENT_SEED = 2026
@@ -367,8 +378,11 @@ def _wide_effect(rng, name: str, taken: set) -> Augment:
     from exudyn_study.physics.catalogue import entry
 
     places, ranges, _ = WIDE_EFFECTS[name]
-    free = [p for p in places if p is None or not (set(str(p).replace(">", "/").split("/")) & taken)]
-    place = free[int(rng.integers(len(free)))] if free else places[int(rng.integers(len(places)))]
+    if places is _SURFACE:
+        place = f"chassis@{SURFACE_REGIONS[int(rng.integers(len(SURFACE_REGIONS)))]}:{rng.uniform():.6f}"
+    else:
+        free = [p for p in places if p is None or not (set(str(p).replace(">", "/").split("/")) & taken)]
+        place = free[int(rng.integers(len(free)))] if free else places[int(rng.integers(len(places)))]
     e = entry(name)
     params = {}
     for p in e.parameters:
@@ -409,7 +423,9 @@ def wide_scenario(index: int, effect: str | None = None, rng_seed: int = DEVELOP
     taken: set = set()
     augs = [_wide_effect(rng, first, taken)]
     taken |= set(str(augs[0].location).replace(">", "/").split("/"))
-    if effect is None and rng.uniform() < WIDE_TWO_EFFECT_SHARE:
+    # two effects in exactly WIDE_TWO_EFFECT_SHARE of any run of consecutive indices, spread evenly
+    two = math.floor((index + 1) * WIDE_TWO_EFFECT_SHARE) > math.floor(index * WIDE_TWO_EFFECT_SHARE)
+    if effect is None and two:
         # a second effect of another kind (two sensor faults at once are left out: one channel's
         # residual would not tell them apart)
         both_sensor = first.startswith("sensor_")
