@@ -126,7 +126,8 @@ def identify_frf(
     weighting : {'coherence', 'none'}, optional
         Weight every line of the LSFD/refinement fit by the inverse standard
         error of the FRF estimate from its coherence (default 'coherence',
-        :func:`~exudyn_study.identify.frf.frf_weights`; needs ``frf.n_averages``),
+        :func:`~exudyn_study.identify.frf.frf_weights`; needs ``frf.n_averages`` above 1,
+        or a local-model estimate, 'LRM' or 'LPM', whose coherence is its local residual's),
         or fit with per-channel 1/rms weights ('none').
     pin_hz, drop_hz : sequence of float, optional
         Modes to force into / remove from the automatic selection (Hz).
@@ -173,7 +174,10 @@ def identify_frf(
         leak = Leakage(frf.sample_rate_hz, frf.n_segment, frf.window)
     if weighting not in ("coherence", "none"):
         raise InputError(f"weighting {weighting!r}: expected 'coherence' or 'none'")
-    weights = frf_weights(frf) if weighting == "coherence" and frf.n_averages > 1 else None
+    # a Welch estimate's coherence from one segment is 1 everywhere; a local-model estimate
+    # (LRM/LPM) has one DFT but its coherence comes from the local fit's residual
+    noise_known = frf.n_averages > 1 or frf.estimator in ("LRM", "LPM")
+    weights = frf_weights(frf) if weighting == "coherence" and noise_known else None
 
     def refit(start_poles):
         return fit_modal_model(frf.H, frf.freq_hz, start_poles, band_hz=band, frf_form=frf_form,
