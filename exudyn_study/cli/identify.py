@@ -105,6 +105,10 @@ def run(args: argparse.Namespace) -> int:
         if check.get("poor_fit_bands_hz"):
             print("self-check: the fit stays poor in " + ", ".join(
                 f"{lo:.2f}-{hi:.2f} Hz" for lo, hi in check["poor_fit_bands_hz"]))
+        for r in result.model.metadata.get("local_refinement", []):
+            print(f"close modes: {r['band_hz'][0]:.2f}-{r['band_hz'][1]:.2f} Hz identified again at "
+                  f"{r['resolution_hz']:.3g} Hz ({r['estimator']} of the whole record), as {r['reason']}: "
+                  f"{r['chosen']}, {r['before_hz']} -> {r['after_hz']} Hz")
         for message in dict.fromkeys(str(w.message) for w in caught):
             print(f"warning: {message}")
         write_modes_json(result.model, out)

@@ -17,10 +17,11 @@ import numpy as np
 
 from exudyn_study.errors import InputError
 from exudyn_study.identify.frf import FRF, estimate_frf, frf_weights
+from exudyn_study.identify.local import refine_locally, trouble_bands
 from exudyn_study.identify.lsfd import Leakage, LSFDResult, fit_modal_model
 from exudyn_study.identify.mac import mpc
 from exudyn_study.identify.model import ModalModel, Mode
-from exudyn_study.identify.polymax import Poles, polymax
+from exudyn_study.identify.polymax import Poles, modal_to_pole, polymax
 from exudyn_study.identify.resolution import (
     choose_resolution,
     fft_friendly_resolution,
@@ -125,7 +126,8 @@ def identify_frf(
     weighting : {'coherence', 'none'}, optional
         Weight every line of the LSFD/refinement fit by the inverse standard
         error of the FRF estimate from its coherence (default 'coherence',
-        :func:`~exudyn_study.identify.frf.frf_weights`; needs ``frf.n_averages``),
+        :func:`~exudyn_study.identify.frf.frf_weights`; needs ``frf.n_averages`` above 1,
+        or a local-model estimate, 'LRM' or 'LPM', whose coherence is its local residual's),
         or fit with per-channel 1/rms weights ('none').
     pin_hz, drop_hz : sequence of float, optional
         Modes to force into / remove from the automatic selection (Hz).
@@ -172,7 +174,10 @@ def identify_frf(
         leak = Leakage(frf.sample_rate_hz, frf.n_segment, frf.window)
     if weighting not in ("coherence", "none"):
         raise InputError(f"weighting {weighting!r}: expected 'coherence' or 'none'")
-    weights = frf_weights(frf) if weighting == "coherence" and frf.n_averages > 1 else None
+    # a Welch estimate's coherence from one segment is 1 everywhere; a local-model estimate
+    # (LRM/LPM) has one DFT but its coherence comes from the local fit's residual
+    noise_known = frf.n_averages > 1 or frf.estimator in ("LRM", "LPM")
+    weights = frf_weights(frf) if weighting == "coherence" and noise_known else None
 
     def refit(start_poles):
         return fit_modal_model(frf.H, frf.freq_hz, start_poles, band_hz=band, frf_form=frf_form,
@@ -240,6 +245,7 @@ def identify(
     overlap: float = 0.5,
     window: str = "hann",
     mimo: bool = False,
+    local_refinement: bool | None = None,
     **kwargs,
 ) -> IdentificationResult:
     """Identify modes from time data ``reference[n_in, n]`` and ``response[n_out, n]``.
@@ -268,6 +274,14 @@ def identify(
         reference excites (:func:`excited_band`).
     overlap, window, mimo
         Welch settings, see :func:`estimate_frf`.
+    local_refinement : bool, optional
+        Re-identify close pairs (modes fewer than
+        :data:`~exudyn_study.identify.local.PAIR_LINES` lines apart) and bands the self-check
+        left poorly fitted on the local-rational FRF of the whole record, whose lines are
+        ``1 / T`` apart (:func:`~exudyn_study.identify.local.refine_locally`); what was
+        re-identified and why goes to the metadata under ``'local_refinement'``. Default: when
+        the resolution is chosen from the data (an explicit ``resolution_hz`` is kept as given).
+        Not with ``mimo=True``.
     **kwargs
         Passed to :func:`identify_frf`.
 
@@ -295,7 +309,8 @@ def identify(
             )
     n = np.shape(response)[-1]
     duration = n / sample_rate_hz
-    stages = ("band and resolution", "FRF estimate", "PolyMAX, selection, LSFD", "refined resolution")
+    stages = ("band and resolution", "FRF estimate", "PolyMAX, selection, LSFD", "refined resolution",
+              "close modes at the record's resolution")
     with StageProgress("identification", stages, leave=False) as progress:
         chosen = {}
         progress.stage("band and resolution")
@@ -344,12 +359,56 @@ def identify(
         if not refined:  # the first pass's warnings stand (a refined pass issued its own)
             for w in first_warnings:
                 warnings.warn_explicit(w.message, w.category, w.filename, w.lineno)
+        if local_refinement is None:
+            local_refinement = "resolution_hz" in chosen
+        if local_refinement and not mimo and len(result.model):
+            progress.stage("close modes at the record's resolution")
+            result = _refine_close_modes(reference, response, sample_rate_hz, result, kwargs,
+                                         outputs=tuple(outputs), inputs=tuple(inputs))
     msg = None if mimo else collinear_references_warning(reference, sample_rate_hz, frf, result.band_hz,
                                                          names=tuple(inputs))
     if msg:
         warnings.warn(msg, stacklevel=3)  # past the one_blas_thread wrapper
         result = replace(result, warnings=result.warnings + (msg,))
     return result
+
+
+def _refine_close_modes(reference, response, fs, result: IdentificationResult, kwargs, *,
+                        outputs, inputs) -> IdentificationResult:
+    """Re-identify close pairs and poorly fitted bands on the fine FRF (see :mod:`.local`)."""
+    model = result.model
+    poor = model.metadata.get("self_check", {}).get("poor_fit_bands_hz", [])
+    bands = trouble_bands(model.frequency_hz, model.damping_ratio, result.frf.resolution_hz,
+                          result.band_hz, poor_fit_bands_hz=[tuple(b) for b in poor])
+    if not bands:
+        return result
+    frf_form = kwargs.get("frf_form", "accelerance")
+    new, report = refine_locally(np.atleast_2d(reference), np.atleast_2d(response), fs, model, bands,
+                                 identify_frf, frf_form=frf_form, outputs=outputs, inputs=inputs)
+    for r in report:
+        logger.info("close modes: %.2f-%.2f Hz re-identified at %.4g Hz (%s, %s): %s -> %s Hz",
+                    *r["band_hz"], r["resolution_hz"], r["reason"], r["chosen"], r["before_hz"],
+                    r["after_hz"])
+    meta = dict(new.metadata)
+    meta["local_refinement"] = report
+    model = ModalModel(new.modes, meta)
+    fit = result.fit
+    if len(model) and fit is not None:
+        # the synthesised FRFs and fit errors of the result stay those of the fitted FRF, for
+        # the final poles (fixed); the modes' shapes come from the fine FRF
+        leak = None
+        if kwargs.get("leakage_correction", True) and result.frf.sample_rate_hz is not None:
+            leak = Leakage(result.frf.sample_rate_hz, result.frf.n_segment, result.frf.window)
+        weights = (frf_weights(result.frf) if kwargs.get("weighting", "coherence") == "coherence"
+                   and result.frf.n_averages > 1 else None)
+        poles = modal_to_pole(model.frequency_hz, model.damping_ratio)
+        try:
+            fit = fit_modal_model(result.frf.H, result.frf.freq_hz, poles, band_hz=result.band_hz,
+                                  frf_form=frf_form, leakage=leak, estimator=result.frf.estimator,
+                                  refine=False, weights=weights)
+        except InputError:
+            fit = None
+    return replace(result, model=model, fit=fit)
 
 
 def excited_band(reference, sample_rate_hz: float, resolution_hz: float) -> tuple[float, float]:

@@ -109,3 +109,23 @@ def test_identify_imports_neither_exudyn_nor_ngsolve():
             "print(bad); sys.exit(1 if bad else 0)")
     r = subprocess.run([sys.executable, "-c", code], capture_output=True, text=True)
     assert r.returncode == 0, r.stdout + r.stderr
+
+
+def test_identify_cli_prints_the_close_modes_it_identified_again(tmp_path, capsys):
+    from exudyn_study.identify.synthetic import BaseExcitedSystem
+
+    rng = np.random.default_rng(3)
+    phi = rng.standard_normal((6, 3))
+    names = tuple(f"R{i}Z" for i in range(6))
+    # 10 and 10.08 Hz: less than a line apart at the resolution 12 averages of 60 s allow
+    sysm = BaseExcitedSystem(np.array([10.0, 10.08, 20.0]), np.array([0.004, 0.009, 0.01]), phi,
+                             np.array([1.0, 0.8, 1.2]), np.ones(6), names, ("Z",) * 6, np.zeros((6, 3)),
+                             reference="BASEZ")
+    ref, resp = simulate(sysm, 60.0, noise=0.02, excitation_band_hz=(3.0, 45.0), seed=5)
+    path, out = tmp_path / "pair.h5", tmp_path / "modes.json"
+    write_recording(to_recording(sysm, ref, resp), path)
+    assert main(["identify", str(path), "--reference", "BASEZ", "--json", str(out)]) == 0
+    printed = capsys.readouterr().out
+    (entry,) = read_modes_json(out).metadata["local_refinement"]
+    assert "close modes: " in printed and "lines apart" in entry["reason"]
+    assert f"{entry['band_hz'][0]:.2f}-{entry['band_hz'][1]:.2f} Hz identified again" in printed
