@@ -117,6 +117,11 @@ class CandidateContext:
         ``kind``, ``values``, ``share``).
     residual_share : dict
         Channel -> its share of the training residual (squared relative errors summed over channels).
+    coherence : dict
+        Channel -> median coherence of its measured response with the drive, 3-60 Hz (empty: unknown).
+    swap_partner : dict
+        Channel -> the recorded channel whose swap with it removes the largest share of the two
+        channels' residual, and that share (:func:`~exudyn_study.diagnose.rig_screen.swap_partners`).
     """
 
     model: object
@@ -140,6 +145,11 @@ class CandidateContext:
     best_places: list = field(default_factory=list)
     #: channel -> its share of the training residual (squared relative errors; empty: unknown)
     residual_share: dict = field(default_factory=dict)
+    #: channel -> median coherence of the measured response with the drive (empty: unknown): a dead
+    #: channel records noise, incoherent with the drive
+    coherence: dict = field(default_factory=dict)
+    #: channel -> (partner channel, share of the pair's residual their swap removes) (empty: unknown)
+    swap_partner: dict = field(default_factory=dict)
 
     @staticmethod
     def entry(name: str):
@@ -373,7 +383,11 @@ def _place_where(ctx: CandidateContext, place: str) -> tuple:
 
 def _at_best_places(ctx: CandidateContext, kind: str, seen: list, min_distance_m: float = 0.1) -> list:
     """Hypotheses of ``kind`` at the structure screen's best places away from the points in ``seen``."""
-    from exudyn_study.diagnose.rig_hypotheses import AddedMassHypothesis, GroundElementHypothesis
+    from exudyn_study.diagnose.rig_hypotheses import (
+        AddedMassHypothesis,
+        GroundElementHypothesis,
+        PointResonatorHypothesis,
+    )
 
     out = []
     for best in [b for b in ctx.best_places if b["kind"] == kind]:
@@ -387,12 +401,38 @@ def _at_best_places(ctx: CandidateContext, kind: str, seen: list, min_distance_m
         if kind == "added_mass":
             h = AddedMassHypothesis(best["place"], ctx.lin, p_map, start=best["values"]["mass_kg"], **where)
             h.screen_grid = tuple((v,) for v in (1.0, 3.0, 10.0, 30.0))
+        elif kind == "tuned_mass_damper":
+            h = PointResonatorHypothesis(best["place"], ctx.lin, p_map, dict(best["values"]), **where)
+            h.screen_grid = tmd_grid_near(best["values"])
         else:
             h = GroundElementHypothesis(best["place"], ctx.lin, p_map, dict(best["values"]), **where)
             h.start = np.maximum(h.start, h.upper * 1e-5)
         h.position_m = [float(v) for v in pos]
         out.append(h)
     return out
+
+
+def tmd_grid_near(values: dict) -> tuple:
+    """Screening grid of a tuned mass-damper around a structure-screen optimum ``values``.
+
+    The residual of a resonator has a local minimum per mode it can tune to; the structure screen's
+    tuning is on a grid 12 % apart, so the grid brackets it by half a step each side, at the screened
+    mass and a third and three times it (the mass sets how far the resonator splits the mode).
+
+    Parameters
+    ----------
+    values : dict
+        ``mass_kg``, ``frequency_hz`` and ``damping_ratio`` of the screen's best element at the place.
+
+    Returns
+    -------
+    tuple of tuple
+        ``(mass_kg, frequency_hz, damping_ratio)`` points.
+    """
+    m, f, z = (float(values[k]) for k in ("mass_kg", "frequency_hz", "damping_ratio"))
+    return tuple(
+        (mm, ff, z) for ff in (f / 1.06, f, f * 1.06) for mm in (m / 3.0, m, 3.0 * m)
+    )
 
 
 def _modal_damping(ctx: CandidateContext):
@@ -1245,24 +1285,53 @@ def _sensor_polarity(ctx: CandidateContext):
     ]
 
 
+#: a dead channel records the acquisition's noise: its median coherence with the drive (3-60 Hz) is
+#: near the bias of the estimate (about 1 / n_segments); a channel above this records the structure
+DEAD_MAX_COHERENCE = 0.5
+#: a channel's swap partner outside the located channels is offered when their swap removes at least
+#: this share of the pair's residual (the current model's simulations exchanged)
+SWAP_MIN_SHARE = 0.5
+
+
 def _sensor_dead(ctx: CandidateContext):
+    """Return a dead channel at each located channel whose measured response is incoherent with the drive.
+
+    A channel that records the structure (coherent with the drive) is not dead, however far it is from
+    the model: a swapped or misplaced channel would otherwise be called dead because zeroing its model
+    output removes its large error.
+    """
     chans = _fault_channels(ctx)
     return [
         _fault(ctx, "sensor_dead", ch)
         for ch in chans
-        if ("sensor_dead", ch) not in ctx.done and _carries(ctx, ch)
+        if ("sensor_dead", ch) not in ctx.done
+        and _carries(ctx, ch)
+        and ctx.coherence.get(ch, 0.0) <= DEAD_MAX_COHERENCE
     ]
 
 
 def _sensor_swap(ctx: CandidateContext):
+    """Return two channels swapped: every pair of the located channels, and each with its best partner.
+
+    A swap of a strongly responding channel with a weak one shows mostly at the strong one's
+    channel; the weak one's may rank below the located channels offered. The partner that the
+    current model's simulations, exchanged, fit best (:attr:`CandidateContext.swap_partner`) is
+    offered besides, when their swap removes :data:`SWAP_MIN_SHARE` of the pair's residual.
+    """
     chans = _fault_channels(ctx)
+    pairs = [(a, b) for k, a in enumerate(chans) for b in chans[k + 1 :]]
+    for a in chans:
+        partner = ctx.swap_partner.get(a)
+        if partner is not None and partner[1] >= SWAP_MIN_SHARE:
+            b = partner[0]
+            if (a, b) not in pairs and (b, a) not in pairs:
+                pairs.append((a, b))
     out = []
-    for k, a in enumerate(chans):
-        for b in chans[k + 1 :]:
-            if not _carries(ctx, a, b):
-                continue
-            if ("sensor_swap", f"{a}/{b}") not in ctx.done and ("sensor_swap", f"{b}/{a}") not in ctx.done:
-                out.append(_fault(ctx, "sensor_swap", f"{a}/{b}"))
+    for a, b in pairs:
+        if not _carries(ctx, a, b):
+            continue
+        if ("sensor_swap", f"{a}/{b}") not in ctx.done and ("sensor_swap", f"{b}/{a}") not in ctx.done:
+            out.append(_fault(ctx, "sensor_swap", f"{a}/{b}"))
     return out
 
 
@@ -1339,11 +1408,23 @@ def _band_modes_hz(lin, lo: float = 3.0, hi: float = 60.0) -> list:
     return [float(v) for v in f if lo <= v <= hi]
 
 
-def _tuned_mass_damper(ctx: CandidateContext):
-    """Tuned mass-dampers at the strongest located points.
+def _screened_at(ctx: CandidateContext, kind: str, pos) -> dict | None:
+    """Return the structure screen's best values of element ``kind`` at the place at ``pos`` (None: none)."""
+    for b in ctx.best_places:
+        if b["kind"] == kind and np.linalg.norm(np.asarray(b["position_m"], dtype=float) - pos) < 1e-6:
+            return dict(b["values"])
+    return None
 
-    The screening grid tunes it to each mode of the current model in the band (it splits that mode)
-    and between two.
+
+def _tuned_mass_damper(ctx: CandidateContext):
+    """Tuned mass-dampers at the strongest located points and at the structure screen's best places.
+
+    At a located point the screening grid brackets the structure screen's best tuning there (the
+    screen tries every tuning of :data:`~exudyn_study.diagnose.rig_places.TMD_TUNINGS_HZ`); without a
+    structure screen it tunes the resonator to each mode of the current model in the band (it splits
+    that mode) and between two. The structure screen's best resonator places
+    (:data:`BEST_PLACES`, away from those points) join: a resonator's place is where its resonance
+    explains the residual, which a point mass's screen does not see.
     """
     from exudyn_study.diagnose.rig_hypotheses import PointResonatorHypothesis
     from exudyn_study.linear.nonlinear import marker_displacement_map
@@ -1358,12 +1439,19 @@ def _tuned_mass_damper(ctx: CandidateContext):
         pos = np.asarray(ctx.markers[loc][1], dtype=float)
         seen.append(pos)
         start = {"mass_kg": 5.0, "frequency_hz": modes[0], "damping_ratio": 0.08}
+        screened = _screened_at(ctx, "tuned_mass_damper", pos)
         p_map = marker_displacement_map(ctx.model, ctx.markers[loc][0])
         h = PointResonatorHypothesis(
-            loc, ctx.lin, p_map, start, component=sensor_component(loc), sensors=(loc,), screen_grid=grid
+            loc,
+            ctx.lin,
+            p_map,
+            screened or start,
+            component=sensor_component(loc),
+            sensors=(loc,),
+            screen_grid=tmd_grid_near(screened) if screened else grid,
         )
         out.append(h)
-    return out
+    return out + _at_best_places(ctx, "tuned_mass_damper", seen)
 
 
 def _explain_tuned_mass_damper(h, v, ctx: ExplainContext) -> str:

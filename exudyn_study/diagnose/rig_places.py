@@ -25,7 +25,14 @@ from dataclasses import dataclass
 
 import numpy as np
 
-__all__ = ["Places", "structure_places", "LocalSensitivity", "screen_places", "PLACE_SPACING_M"]
+__all__ = [
+    "Places",
+    "structure_places",
+    "LocalSensitivity",
+    "screen_places",
+    "PLACE_SPACING_M",
+    "TMD_TUNINGS_HZ",
+]
 
 #: candidate places: one mesh node per cube of this edge (m) on every flexible body but the foundation
 #: (with the sensors' nodes)
@@ -218,11 +225,21 @@ def element_mu(
     return omega**2 * mass_kg - stiffness_n_per_m - 1j * omega * damping_n_s_per_m
 
 
-#: elements screened at every place: kind -> list of parameter sets (a coarse grid)
+#: tunings (Hz) of the tuned mass-dampers screened at every place: log-spaced over the diagnosed band,
+#: 12 % apart (a resonator detuned by half a step still takes most of the change it makes in the
+#: log-magnitude FRF: the screen only ranks places, the fit finds the tuning)
+TMD_TUNINGS_HZ = tuple(float(f) for f in np.round(np.geomspace(5.0, 58.0, 22), 2))
+
+#: elements screened at every place: kind -> list of parameter sets (a coarse grid). A tuned
+#: mass-damper's change of the FRFs is a resonance near its tuning, which neither a point mass nor a
+#: spring-damper to ground makes: its place is screened with its own grid (mass x tuning).
 SCREEN_ELEMENTS = {
     "added_mass": [{"mass_kg": m} for m in (2.0, 5.0, 12.0, 30.0)],
     "local_element": [
         {"stiffness_n_per_m": k, "damping_n_s_per_m": c} for k in (0.0, 1e5, 1e6) for c in (300.0, 3e3)
+    ],
+    "tuned_mass_damper": [
+        {"mass_kg": m, "frequency_hz": f, "damping_ratio": 0.08} for f in TMD_TUNINGS_HZ for m in (3.0, 9.0)
     ],
 }
 
