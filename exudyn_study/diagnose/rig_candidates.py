@@ -18,9 +18,11 @@ apply). The registration declares
   it the report lists the fitted values.
 
 Every catalogue entry but ``tank_wall_mode`` (a damped resonator inside a tank, in the ``thesis``
-truth: the diagnosis cannot name it yet) and ``ground_spring_damper`` (the generic local element of
-:func:`generic_local_elements`, the last candidate of a round, stands in for it and for other local
-physics outside the catalogue) has a candidate. The built-ins (``added_mass``, ``modal_damping``,
+truth: the diagnosis cannot name it yet) has a candidate. ``ground_spring_damper`` is the generic local
+element (physics ``'local_element'``, outside the catalogue): offered in a round where the structure
+screen finds it explaining clearly more than a point mass or a tuned mass-damper anywhere, and, by
+:func:`generic_local_elements`, as the last candidate of a round, where it stands in for other local
+physics outside the catalogue. The built-ins (``added_mass``, ``modal_damping``,
 ``sensor_gain`` and the other sensor faults (``sensor_polarity``, ``sensor_swap``, ``sensor_axis``,
 ``sensor_dead``, ``sensor_clipped``, ``sensor_delay``: at the :data:`FAULT_CHANNELS` strongest located
 channels), ``tuned_mass_damper`` (at the :data:`RESONATOR_PLACES` strongest located points),
@@ -1500,6 +1502,47 @@ def generic_local_elements(ctx: CandidateContext, n_places: int = 6) -> list:
     return out
 
 
+#: the generic local element joins a round's candidates when the structure screen's best local element
+#: explains at least this share of the log-transmissibility residual ...
+LOCAL_MIN_SHARE = 0.3
+#: ... and this much more than the best point mass and the best tuned mass-damper anywhere (a local
+#: stiffness or damping to ground that no catalogue element at a point can make)
+LOCAL_MARGIN = 0.1
+
+
+def _local_element_screened(ctx: CandidateContext):
+    """Return the generic local element at the structure screen's best places, when only it explains it.
+
+    The generic element is otherwise the last candidate of a round, tried only when no catalogue fit
+    is acceptable: with two effects at once, or a catalogue entry that takes part of a dashpot's
+    residual without a bound, that round never comes. A dashpot or spring to ground at a point adds
+    stiffness or damping there, which neither a point mass nor a tuned mass-damper can; where the
+    screen of all three at every place (:func:`~exudyn_study.diagnose.rig_places.screen_places`) finds
+    the local element explaining :data:`LOCAL_MIN_SHARE` of the residual and :data:`LOCAL_MARGIN` more
+    than either catalogue element, it competes with the catalogue's candidates in the round (and is
+    named as outside the catalogue, with the closest catalogue elements of the screen).
+    """
+    from exudyn_study.diagnose.rig_explain import point_of
+
+    best = {}
+    for b in ctx.best_places:
+        best.setdefault(b["kind"], b)
+    local = best.get("local_element")
+    if local is None:
+        return []
+    rivals = [best[k] for k in ("added_mass", "tuned_mass_damper") if k in best]
+    if local["share"] < LOCAL_MIN_SHARE or any(local["share"] < r["share"] + LOCAL_MARGIN for r in rivals):
+        return []
+    closest = tuple((f"{r['kind']}@{r['place']}", float(r["share"])) for r in rivals)
+    out = _at_best_places(ctx, "local_element", [])
+    for h in out:
+        h.screen_grid = tuple((k, c) for k in (1e4, 1e6) for c in (30.0, 1e3, 3e4))
+        h.place = point_of(h, ctx.markers)
+        h.closest = closest
+    done = {loc for name, loc in ctx.done if name in ("local_element", "ground_spring_damper")}
+    return [h for h in out if h.location not in done]
+
+
 def _explain_sensor_polarity(h, v, ctx: ExplainContext) -> str:
     g, s = v["gain"]
     return (
@@ -1626,6 +1669,12 @@ for _physics, _factory, _explain, _what in (
     ("sensor_delay", _sensor_delay, _explain_sensor_delay, "a located channel recorded late or early"),
 ):
     register_rig_candidate(_physics, _factory, description=_what, explain=_explain)
+register_rig_candidate(
+    "ground_spring_damper",
+    _local_element_screened,
+    description="the generic local element (a spring-damper to ground, outside the catalogue) at the "
+    "structure screen's best places, when neither a point mass nor a tuned mass-damper explains as much",
+)
 register_rig_candidate(
     "tuned_mass_damper",
     _tuned_mass_damper,

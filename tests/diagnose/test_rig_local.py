@@ -174,3 +174,63 @@ def test_the_structure_screen_finds_a_tuned_mass_damper_by_its_resonance(bodies)
     assert tmd_best["share"] > 0.6 and tmd_best["share"] > mass_best["share"] + 0.2
     step = TMD_TUNINGS_HZ[1] / TMD_TUNINGS_HZ[0]
     assert 1 / step <= tmd_best["values"]["frequency_hz"] / 23.0 <= step
+
+
+@pytest.mark.parametrize(
+    ("truth", "offered"),
+    [
+        ({"stiffness_n_per_m": 0.0, "damping_n_s_per_m": 4000.0}, True),  # a dashpot to ground
+        ({"mass_kg": 6.0, "frequency_hz": 23.0, "damping_ratio": 0.07}, False),  # a tuned mass-damper
+        ({"mass_kg": 15.0}, False),  # a point mass
+    ],
+)
+def test_the_generic_element_competes_only_where_the_screen_finds_a_local_stiffness(bodies, truth, offered):
+    """The exact FRF of the structure with a dashpot to ground, a resonator or a point mass at a mesh
+    node away from the sensors: the generic local element joins the round's candidates (at a place within
+    0.25 m of the truth, with the screen's closest catalogue elements for its text) only for the dashpot,
+    which adds damping to ground that no point mass or resonator makes."""
+    from types import SimpleNamespace
+
+    from exudyn_study.diagnose.rig_candidates import RIG_CANDIDATES, CandidateContext
+    from exudyn_study.diagnose.rig_hypotheses import (
+        AddedMassHypothesis,
+        GroundElementHypothesis,
+        PointResonatorHypothesis,
+    )
+    from exudyn_study.diagnose.rig_places import screen_places, structure_places
+    from exudyn_study.linear.response import frf_linear
+    from exudyn_study.model import linearise
+    from exudyn_study.physics.entries import location_point
+
+    model = _model(bodies)
+    markers = {s: location_point(model, s) for s in model.sensors}  # before assembly, as the diagnosis
+    lin = linearise(model)
+    places = structure_places(model, spacing_m=0.2)
+    sensor_pos = np.array([places.positions[i] for i, n in enumerate(places.names) if "#" not in n])
+    far = [np.min(np.linalg.norm(sensor_pos - p, axis=1)) if "#" in n else 0.0
+           for n, p in zip(places.names, places.positions, strict=True)]
+    k = int(np.argmax(far))
+    name, p_map = places.names[k], places.maps[k]
+    if "damping_n_s_per_m" in truth:
+        h_truth = GroundElementHypothesis(name, lin, p_map, dict(truth))
+    elif "frequency_hz" in truth:
+        h_truth = PointResonatorHypothesis(name, lin, p_map, dict(truth))
+    else:
+        h_truth = AddedMassHypothesis(name, lin, p_map, start=truth["mass_kg"])
+    f = np.linspace(3.0, 60.0, 229)
+    h_true = frf_linear(h_truth.system(h_truth.start), f)[:, 0]
+    ev = SimpleNamespace(
+        recs=[SimpleNamespace(channels=tuple(lin.sensor_names))], f=f,
+        log_h=[np.log(np.abs(h_true))], weight=[np.ones(h_true.shape)],
+    )
+    ctx = CandidateContext(
+        model=model, lin=lin, build=None, locations=list(markers), markers=markers,
+        sensor_names=tuple(lin.sensor_names), located=[], level_dependent=False,
+        best_places=screen_places(lin, places, ev),
+    )
+    made = RIG_CANDIDATES["ground_spring_damper"].factory(ctx)
+    assert bool(made) == offered
+    if offered:
+        assert all(h.physics == "local_element" for h in made)
+        assert np.linalg.norm(np.asarray(made[0].position_m) - places.positions[k]) < 0.25
+        assert {lab.split("@")[0] for lab, _ in made[0].closest} == {"added_mass", "tuned_mass_damper"}
