@@ -197,10 +197,41 @@ class LocalSensitivity:
         batch = mu.ndim == 2
         mu = np.atleast_2d(mu)  # (g, n_f)
         lhs = np.eye(3)[None, None] - mu[:, :, None, None] * a_mat[None]
-        w = np.linalg.solve(lhs, np.broadcast_to(c_vec, lhs.shape[:2] + (3,))[..., None])[..., 0]
+        w = solve3(lhs, np.broadcast_to(c_vec, lhs.shape[:2] + (3,)))
         dy = -(self.omega[None, :] ** 2 * mu)[:, :, None] * np.einsum("fsj,gfj->gfs", b_mat, w)
         out = self.h0[None] + np.transpose(dy, (0, 2, 1))
         return out if batch else out[0]
+
+
+def solve3(a: np.ndarray, b: np.ndarray) -> np.ndarray:
+    """Solve many 3x3 systems ``a x = b`` at once by Cramer's rule (vectorised; no LAPACK call per system).
+
+    Parameters
+    ----------
+    a : numpy.ndarray
+        Matrices, shape (..., 3, 3).
+    b : numpy.ndarray
+        Right-hand sides, shape (..., 3).
+
+    Returns
+    -------
+    numpy.ndarray
+        Solutions, shape (..., 3) (inf or nan where a matrix is singular).
+    """
+    (a00, a01, a02), (a10, a11, a12), (a20, a21, a22) = (
+        (a[..., i, 0], a[..., i, 1], a[..., i, 2]) for i in range(3)
+    )
+    b0, b1, b2 = b[..., 0], b[..., 1], b[..., 2]
+    # the cofactors (cross products of the rows): x = adj(a) b / det(a)
+    c00, c01, c02 = a11 * a22 - a12 * a21, a12 * a20 - a10 * a22, a10 * a21 - a11 * a20
+    c10, c11, c12 = a21 * a02 - a22 * a01, a22 * a00 - a20 * a02, a20 * a01 - a21 * a00
+    c20, c21, c22 = a01 * a12 - a02 * a11, a02 * a10 - a00 * a12, a00 * a11 - a01 * a10
+    det = a00 * c00 + a01 * c01 + a02 * c02
+    x = np.stack(
+        (c00 * b0 + c10 * b1 + c20 * b2, c01 * b0 + c11 * b1 + c21 * b2, c02 * b0 + c12 * b1 + c22 * b2),
+        axis=-1,
+    )
+    return x / det[..., None]
 
 
 def element_mu(
@@ -275,7 +306,10 @@ def screen_places(lin, places: Places, ev_spectral, gains=None, elements=None) -
     def rss(h):  # h (g, n_s, n_f) -> (g,)
         total = np.zeros(h.shape[0])
         for r, log_h, w in zip(ev_spectral.recs, ev_spectral.log_h, ev_spectral.weight, strict=True):
-            hm = np.array([apply_output_frf(x, gains, r.channels, ev_spectral.f) for x in h])
+            if gains is None or isinstance(gains, np.ndarray):  # a gain per channel: one product
+                hm = h if gains is None else h * np.asarray(gains)[None, :, None]
+            else:
+                hm = np.array([apply_output_frf(x, gains, r.channels, ev_spectral.f) for x in h])
             e = w[None] * (np.log(np.abs(hm) + 1e-300) - log_h[None])
             total += np.sum(e**2, axis=(1, 2)) / e[0].size
         return total

@@ -234,3 +234,13 @@ def test_the_generic_element_competes_only_where_the_screen_finds_a_local_stiffn
         assert all(h.physics == "local_element" for h in made)
         assert np.linalg.norm(np.asarray(made[0].position_m) - places.positions[k]) < 0.25
         assert {lab.split("@")[0] for lab, _ in made[0].closest} == {"added_mass", "tuned_mass_damper"}
+
+
+def test_solve3_equals_lapack_on_many_small_systems():
+    """The vectorised Cramer solve of the place screen equals LAPACK's on random complex 3x3 systems."""
+    from exudyn_study.diagnose.rig_places import solve3
+
+    rng = np.random.default_rng(0)
+    a = rng.normal(size=(4, 50, 3, 3)) + 1j * rng.normal(size=(4, 50, 3, 3))
+    b = rng.normal(size=(4, 50, 3)) + 1j * rng.normal(size=(4, 50, 3))
+    np.testing.assert_allclose(solve3(a, b), np.linalg.solve(a, b[..., None])[..., 0], rtol=1e-9, atol=1e-12)
