@@ -378,6 +378,12 @@ def _place_where(ctx: CandidateContext, place: str) -> tuple:
         return where, place_map(ctx.model, place)
     from exudyn_study.linear.nonlinear import marker_displacement_map
 
+    if place not in ctx.model.sensors:  # a frame interface (a patch where a component is attached)
+        pos = np.asarray(ctx.markers[place][1], dtype=float)
+        near = [s for s in ctx.sensor_names if np.linalg.norm(ctx.markers[s][1] - pos) < 0.3]
+        where = {"component": "frame", "sensors": tuple(near), "interface": place.split(".", 1)[1]}
+        return where, marker_displacement_map(ctx.model, ctx.markers[place][0])
+
     return {"component": sensor_component(place), "sensors": (place,)}, marker_displacement_map(
         ctx.model, ctx.markers[place][0]
     )

@@ -61,12 +61,16 @@ class Places:
     maps: tuple
 
 
-def structure_places(model, spacing_m: float = PLACE_SPACING_M, skip=("rear_foundation",)) -> Places:
-    """Return every sensor's node and one mesh node per ``spacing_m`` cube of every flexible body.
+def structure_places(
+    model, spacing_m: float = PLACE_SPACING_M, skip=("rear_foundation",), markers: dict | None = None
+) -> Places:
+    """Return every sensor's node, the frame interfaces and a mesh node per ``spacing_m`` cube of each body.
 
     The model is assembled. Per cube the node nearest the centroid of the body's nodes in it; bodies
     in ``skip`` are left out (the rig's foundation is not the specimen). A sensor's place is named by
-    the sensor (one per point: the first sensor there).
+    the sensor (one per point: the first sensor there); an interface (a patch where a component is
+    attached, such as ``'chassis.front_strut'``) by its location name, with its marker's displacement
+    map (the patch's mean motion), when ``markers`` holds it.
 
     Parameters
     ----------
@@ -76,6 +80,10 @@ def structure_places(model, spacing_m: float = PLACE_SPACING_M, skip=("rear_foun
         Edge length (m) of the cubes one mesh node is taken per (default :data:`PLACE_SPACING_M`).
     skip : tuple of str, optional
         Bodies left out (default: the rig's foundation, ``'rear_foundation'``).
+    markers : dict, optional
+        Location -> (Exudyn marker, global position) of the model's point locations (the diagnosis's
+        :class:`~exudyn_study.diagnose.rig_state.ModelState` ``markers``); its locations that are no
+        sensor (the interfaces) become places too (None: none).
 
     Returns
     -------
@@ -98,6 +106,16 @@ def structure_places(model, spacing_m: float = PLACE_SPACING_M, skip=("rear_foun
         positions.append(pos)
         bodies.append(att.body)
         maps.append(full)
+    if markers:
+        from exudyn_study.linear.nonlinear import marker_displacement_map
+
+        for loc, (marker, pos) in markers.items():
+            if loc in model.sensors or loc.split(".", 1)[0] in skip:
+                continue
+            names.append(loc)
+            positions.append(np.asarray(pos, dtype=float))
+            bodies.append(loc.split(".", 1)[0])
+            maps.append(np.asarray(marker_displacement_map(model, marker), dtype=float))
     for b, handle in model.bodies.items():
         if b in skip:
             continue

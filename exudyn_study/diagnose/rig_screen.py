@@ -148,7 +148,7 @@ def candidate_context(
         from exudyn_study.diagnose.rig_places import screen_places, structure_places
 
         t0 = time.perf_counter()
-        places = structure_places(state.model, problem.settings.place_spacing_m)
+        places = structure_places(state.model, problem.settings.place_spacing_m, markers=state.markers)
         best_places = screen_places(state.lin, places, problem.ev_spectral, state.gains)
         problem.say(
             "screened a point mass, a tuned mass-damper and a spring-damper to ground at "
