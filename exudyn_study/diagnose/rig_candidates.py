@@ -1539,8 +1539,28 @@ def _local_element_screened(ctx: CandidateContext):
     rivals = [best[k] for k in ("added_mass", "tuned_mass_damper") if k in best]
     if local["share"] < LOCAL_MIN_SHARE or any(local["share"] < r["share"] + LOCAL_MARGIN for r in rivals):
         return []
+    from exudyn_study.diagnose.rig_hypotheses import GroundElementHypothesis
+    from exudyn_study.linear.nonlinear import marker_displacement_map
+
     closest = tuple((f"{r['kind']}@{r['place']}", float(r["share"])) for r in rivals)
-    out = _at_best_places(ctx, "local_element", [])
+    seen: list = []
+    out = _at_best_places(ctx, "local_element", seen)
+    # and at the strongest located points: a dashpot at a sensor's point is exact there, while the
+    # screen's best places are on a grid (a resonator with its extra parameter fits a near place better)
+    for loc in point_places(ctx, RESONATOR_PLACES):
+        pos = np.asarray(ctx.markers[loc][1], dtype=float)
+        if any(np.linalg.norm(pos - q) < 1e-6 for q in seen):
+            continue
+        h = GroundElementHypothesis(
+            loc,
+            ctx.lin,
+            marker_displacement_map(ctx.model, ctx.markers[loc][0]),
+            {"stiffness_n_per_m": 1e4, "damping_n_s_per_m": 1e3},
+            component=sensor_component(loc),
+            sensors=(loc,),
+        )
+        h.position_m = [float(v) for v in pos]
+        out.append(h)
     for h in out:
         h.screen_grid = tuple((k, c) for k in (1e4, 1e6) for c in (30.0, 1e3, 3e4))
         h.place = point_of(h, ctx.markers)

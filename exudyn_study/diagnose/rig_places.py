@@ -286,8 +286,12 @@ TMD_TUNINGS_HZ = tuple(float(f) for f in np.round(np.geomspace(5.0, 58.0, 22), 2
 #: spring-damper to ground makes: its place is screened with its own grid (mass x tuning).
 SCREEN_ELEMENTS = {
     "added_mass": [{"mass_kg": m} for m in (2.0, 5.0, 12.0, 30.0)],
+    # dampings a factor of about 3 apart: a dashpot's place ranks by its share, which a grid value far
+    # from its damping understates (nearby places with more or less motion then rank above it)
     "local_element": [
-        {"stiffness_n_per_m": k, "damping_n_s_per_m": c} for k in (0.0, 1e5, 1e6) for c in (300.0, 3e3)
+        {"stiffness_n_per_m": k, "damping_n_s_per_m": c}
+        for k in (0.0, 1e5, 1e6)
+        for c in (300.0, 1e3, 3e3, 1e4)
     ],
     "tuned_mass_damper": [
         {"mass_kg": m, "frequency_hz": f, "damping_ratio": 0.08} for f in TMD_TUNINGS_HZ for m in (3.0, 9.0)
