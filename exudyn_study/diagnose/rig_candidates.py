@@ -1516,6 +1516,37 @@ LOCAL_MIN_SHARE = 0.3
 LOCAL_MARGIN = 0.1
 
 
+def point_of(h, markers) -> dict:
+    """Return ``position_m`` and ``nearest_sensor`` of a hypothesis at a point (empty if not at one).
+
+    ``markers``: location -> (marker, global position) of the model (sensors and interfaces).
+
+    Parameters
+    ----------
+    h : Hypothesis
+        The hypothesis (a ``position_m`` attribute, else its ``location`` looked up in ``markers``).
+    markers : dict
+        The model's locations (sensors and interfaces) -> (marker, global position in m).
+
+    Returns
+    -------
+    dict
+        ``position_m`` (list of three floats, m) and ``nearest_sensor`` (str), or empty.
+    """
+    if getattr(h, "position_m", None) is not None:  # a mesh-node place of the structure screen
+        pos = np.asarray(h.position_m, dtype=float)
+    elif isinstance(h.location, str) and h.location in markers:
+        pos = np.asarray(markers[h.location][1], dtype=float)
+    else:
+        return {}
+    sensors = [k for k in markers if sensor_component(k) is not None or "." not in k]
+    nearest = min(sensors, key=lambda k: float(np.linalg.norm(np.asarray(markers[k][1]) - pos)), default=None)
+    out = {"position_m": [round(float(v), 4) for v in pos]}
+    if nearest is not None:
+        out["nearest_sensor"] = nearest
+    return out
+
+
 def _local_element_screened(ctx: CandidateContext):
     """Return the generic local element at the structure screen's best places, when only it explains it.
 
@@ -1528,8 +1559,6 @@ def _local_element_screened(ctx: CandidateContext):
     than either catalogue element, it competes with the catalogue's candidates in the round (and is
     named as outside the catalogue, with the closest catalogue elements of the screen).
     """
-    from exudyn_study.diagnose.rig_explain import point_of
-
     best = {}
     for b in ctx.best_places:
         best.setdefault(b["kind"], b)
