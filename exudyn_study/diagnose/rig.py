@@ -283,7 +283,13 @@ def _carry_batch(problem: RigProblem, state: ModelState, screening, fits, batch:
 
 
 def _stretched(fits) -> bool:
-    """Whether every acceptable catalogue fit of the round has a parameter at its bound (a stand-in)."""
+    """Whether every acceptable catalogue fit of the round has a parameter at its bound (a stand-in).
+
+    A round whose acceptable fits include the generic local element itself (offered where the structure
+    screen points at it) is not: the generic element would only be fitted again.
+    """
+    if any(f["h"].physics == "local_element" for f in fits.ok):
+        return False
     return not fits.together and all(np.any(f.get("at_bound", False)) for f in fits.ok)
 
 

@@ -18,9 +18,11 @@ apply). The registration declares
   it the report lists the fitted values.
 
 Every catalogue entry but ``tank_wall_mode`` (a damped resonator inside a tank, in the ``thesis``
-truth: the diagnosis cannot name it yet) and ``ground_spring_damper`` (the generic local element of
-:func:`generic_local_elements`, the last candidate of a round, stands in for it and for other local
-physics outside the catalogue) has a candidate. The built-ins (``added_mass``, ``modal_damping``,
+truth: the diagnosis cannot name it yet) has a candidate. ``ground_spring_damper`` is the generic local
+element (physics ``'local_element'``, outside the catalogue): offered in a round where the structure
+screen finds it explaining clearly more than a point mass or a tuned mass-damper anywhere, and, by
+:func:`generic_local_elements`, as the last candidate of a round, where it stands in for other local
+physics outside the catalogue. The built-ins (``added_mass``, ``modal_damping``,
 ``sensor_gain`` and the other sensor faults (``sensor_polarity``, ``sensor_swap``, ``sensor_axis``,
 ``sensor_dead``, ``sensor_clipped``, ``sensor_delay``: at the :data:`FAULT_CHANNELS` strongest located
 channels), ``tuned_mass_damper`` (at the :data:`RESONATOR_PLACES` strongest located points),
@@ -117,6 +119,11 @@ class CandidateContext:
         ``kind``, ``values``, ``share``).
     residual_share : dict
         Channel -> its share of the training residual (squared relative errors summed over channels).
+    coherence : dict
+        Channel -> median coherence of its measured response with the drive, 3-60 Hz (empty: unknown).
+    swap_partner : dict
+        Channel -> the recorded channel whose swap with it removes the largest share of the two
+        channels' residual, and that share (:func:`~exudyn_study.diagnose.rig_screen.swap_partners`).
     """
 
     model: object
@@ -140,6 +147,11 @@ class CandidateContext:
     best_places: list = field(default_factory=list)
     #: channel -> its share of the training residual (squared relative errors; empty: unknown)
     residual_share: dict = field(default_factory=dict)
+    #: channel -> median coherence of the measured response with the drive (empty: unknown): a dead
+    #: channel records noise, incoherent with the drive
+    coherence: dict = field(default_factory=dict)
+    #: channel -> (partner channel, share of the pair's residual their swap removes) (empty: unknown)
+    swap_partner: dict = field(default_factory=dict)
 
     @staticmethod
     def entry(name: str):
@@ -366,6 +378,12 @@ def _place_where(ctx: CandidateContext, place: str) -> tuple:
         return where, place_map(ctx.model, place)
     from exudyn_study.linear.nonlinear import marker_displacement_map
 
+    if place not in ctx.model.sensors:  # a frame interface (a patch where a component is attached)
+        pos = np.asarray(ctx.markers[place][1], dtype=float)
+        near = [s for s in ctx.sensor_names if np.linalg.norm(ctx.markers[s][1] - pos) < 0.3]
+        where = {"component": "frame", "sensors": tuple(near), "interface": place.split(".", 1)[1]}
+        return where, marker_displacement_map(ctx.model, ctx.markers[place][0])
+
     return {"component": sensor_component(place), "sensors": (place,)}, marker_displacement_map(
         ctx.model, ctx.markers[place][0]
     )
@@ -373,7 +391,11 @@ def _place_where(ctx: CandidateContext, place: str) -> tuple:
 
 def _at_best_places(ctx: CandidateContext, kind: str, seen: list, min_distance_m: float = 0.1) -> list:
     """Hypotheses of ``kind`` at the structure screen's best places away from the points in ``seen``."""
-    from exudyn_study.diagnose.rig_hypotheses import AddedMassHypothesis, GroundElementHypothesis
+    from exudyn_study.diagnose.rig_hypotheses import (
+        AddedMassHypothesis,
+        GroundElementHypothesis,
+        PointResonatorHypothesis,
+    )
 
     out = []
     for best in [b for b in ctx.best_places if b["kind"] == kind]:
@@ -387,12 +409,38 @@ def _at_best_places(ctx: CandidateContext, kind: str, seen: list, min_distance_m
         if kind == "added_mass":
             h = AddedMassHypothesis(best["place"], ctx.lin, p_map, start=best["values"]["mass_kg"], **where)
             h.screen_grid = tuple((v,) for v in (1.0, 3.0, 10.0, 30.0))
+        elif kind == "tuned_mass_damper":
+            h = PointResonatorHypothesis(best["place"], ctx.lin, p_map, dict(best["values"]), **where)
+            h.screen_grid = tmd_grid_near(best["values"])
         else:
             h = GroundElementHypothesis(best["place"], ctx.lin, p_map, dict(best["values"]), **where)
             h.start = np.maximum(h.start, h.upper * 1e-5)
         h.position_m = [float(v) for v in pos]
         out.append(h)
     return out
+
+
+def tmd_grid_near(values: dict) -> tuple:
+    """Screening grid of a tuned mass-damper around a structure-screen optimum ``values``.
+
+    The residual of a resonator has a local minimum per mode it can tune to; the structure screen's
+    tuning is on a grid 12 % apart, so the grid brackets it by half a step each side, at the screened
+    mass and a third and three times it (the mass sets how far the resonator splits the mode).
+
+    Parameters
+    ----------
+    values : dict
+        ``mass_kg``, ``frequency_hz`` and ``damping_ratio`` of the screen's best element at the place.
+
+    Returns
+    -------
+    tuple of tuple
+        ``(mass_kg, frequency_hz, damping_ratio)`` points.
+    """
+    m, f, z = (float(values[k]) for k in ("mass_kg", "frequency_hz", "damping_ratio"))
+    return tuple(
+        (mm, ff, z) for ff in (f / 1.06, f, f * 1.06) for mm in (m / 3.0, m, 3.0 * m)
+    )
 
 
 def _modal_damping(ctx: CandidateContext):
@@ -1245,24 +1293,53 @@ def _sensor_polarity(ctx: CandidateContext):
     ]
 
 
+#: a dead channel records the acquisition's noise: its median coherence with the drive (3-60 Hz) is
+#: near the bias of the estimate (about 1 / n_segments); a channel above this records the structure
+DEAD_MAX_COHERENCE = 0.5
+#: a channel's swap partner outside the located channels is offered when their swap removes at least
+#: this share of the pair's residual (the current model's simulations exchanged)
+SWAP_MIN_SHARE = 0.5
+
+
 def _sensor_dead(ctx: CandidateContext):
+    """Return a dead channel at each located channel whose measured response is incoherent with the drive.
+
+    A channel that records the structure (coherent with the drive) is not dead, however far it is from
+    the model: a swapped or misplaced channel would otherwise be called dead because zeroing its model
+    output removes its large error.
+    """
     chans = _fault_channels(ctx)
     return [
         _fault(ctx, "sensor_dead", ch)
         for ch in chans
-        if ("sensor_dead", ch) not in ctx.done and _carries(ctx, ch)
+        if ("sensor_dead", ch) not in ctx.done
+        and _carries(ctx, ch)
+        and ctx.coherence.get(ch, 0.0) <= DEAD_MAX_COHERENCE
     ]
 
 
 def _sensor_swap(ctx: CandidateContext):
+    """Return two channels swapped: every pair of the located channels, and each with its best partner.
+
+    A swap of a strongly responding channel with a weak one shows mostly at the strong one's
+    channel; the weak one's may rank below the located channels offered. The partner that the
+    current model's simulations, exchanged, fit best (:attr:`CandidateContext.swap_partner`) is
+    offered besides, when their swap removes :data:`SWAP_MIN_SHARE` of the pair's residual.
+    """
     chans = _fault_channels(ctx)
+    pairs = [(a, b) for k, a in enumerate(chans) for b in chans[k + 1 :]]
+    for a in chans:
+        partner = ctx.swap_partner.get(a)
+        if partner is not None and partner[1] >= SWAP_MIN_SHARE:
+            b = partner[0]
+            if (a, b) not in pairs and (b, a) not in pairs:
+                pairs.append((a, b))
     out = []
-    for k, a in enumerate(chans):
-        for b in chans[k + 1 :]:
-            if not _carries(ctx, a, b):
-                continue
-            if ("sensor_swap", f"{a}/{b}") not in ctx.done and ("sensor_swap", f"{b}/{a}") not in ctx.done:
-                out.append(_fault(ctx, "sensor_swap", f"{a}/{b}"))
+    for a, b in pairs:
+        if not _carries(ctx, a, b):
+            continue
+        if ("sensor_swap", f"{a}/{b}") not in ctx.done and ("sensor_swap", f"{b}/{a}") not in ctx.done:
+            out.append(_fault(ctx, "sensor_swap", f"{a}/{b}"))
     return out
 
 
@@ -1339,11 +1416,23 @@ def _band_modes_hz(lin, lo: float = 3.0, hi: float = 60.0) -> list:
     return [float(v) for v in f if lo <= v <= hi]
 
 
-def _tuned_mass_damper(ctx: CandidateContext):
-    """Tuned mass-dampers at the strongest located points.
+def _screened_at(ctx: CandidateContext, kind: str, pos) -> dict | None:
+    """Return the structure screen's best values of element ``kind`` at the place at ``pos`` (None: none)."""
+    for b in ctx.best_places:
+        if b["kind"] == kind and np.linalg.norm(np.asarray(b["position_m"], dtype=float) - pos) < 1e-6:
+            return dict(b["values"])
+    return None
 
-    The screening grid tunes it to each mode of the current model in the band (it splits that mode)
-    and between two.
+
+def _tuned_mass_damper(ctx: CandidateContext):
+    """Tuned mass-dampers at the strongest located points and at the structure screen's best places.
+
+    At a located point the screening grid brackets the structure screen's best tuning there (the
+    screen tries every tuning of :data:`~exudyn_study.diagnose.rig_places.TMD_TUNINGS_HZ`); without a
+    structure screen it tunes the resonator to each mode of the current model in the band (it splits
+    that mode) and between two. The structure screen's best resonator places
+    (:data:`BEST_PLACES`, away from those points) join: a resonator's place is where its resonance
+    explains the residual, which a point mass's screen does not see.
     """
     from exudyn_study.diagnose.rig_hypotheses import PointResonatorHypothesis
     from exudyn_study.linear.nonlinear import marker_displacement_map
@@ -1358,12 +1447,19 @@ def _tuned_mass_damper(ctx: CandidateContext):
         pos = np.asarray(ctx.markers[loc][1], dtype=float)
         seen.append(pos)
         start = {"mass_kg": 5.0, "frequency_hz": modes[0], "damping_ratio": 0.08}
+        screened = _screened_at(ctx, "tuned_mass_damper", pos)
         p_map = marker_displacement_map(ctx.model, ctx.markers[loc][0])
         h = PointResonatorHypothesis(
-            loc, ctx.lin, p_map, start, component=sensor_component(loc), sensors=(loc,), screen_grid=grid
+            loc,
+            ctx.lin,
+            p_map,
+            screened or start,
+            component=sensor_component(loc),
+            sensors=(loc,),
+            screen_grid=tmd_grid_near(screened) if screened else grid,
         )
         out.append(h)
-    return out
+    return out + _at_best_places(ctx, "tuned_mass_damper", seen)
 
 
 def _explain_tuned_mass_damper(h, v, ctx: ExplainContext) -> str:
@@ -1410,6 +1506,96 @@ def generic_local_elements(ctx: CandidateContext, n_places: int = 6) -> list:
             )
         )
     return out
+
+
+#: the generic local element joins a round's candidates when the structure screen's best local element
+#: explains at least this share of the log-transmissibility residual ...
+LOCAL_MIN_SHARE = 0.3
+#: ... and this much more than the best point mass and the best tuned mass-damper anywhere (a local
+#: stiffness or damping to ground that no catalogue element at a point can make)
+LOCAL_MARGIN = 0.1
+
+
+def point_of(h, markers) -> dict:
+    """Return ``position_m`` and ``nearest_sensor`` of a hypothesis at a point (empty if not at one).
+
+    ``markers``: location -> (marker, global position) of the model (sensors and interfaces).
+
+    Parameters
+    ----------
+    h : Hypothesis
+        The hypothesis (a ``position_m`` attribute, else its ``location`` looked up in ``markers``).
+    markers : dict
+        The model's locations (sensors and interfaces) -> (marker, global position in m).
+
+    Returns
+    -------
+    dict
+        ``position_m`` (list of three floats, m) and ``nearest_sensor`` (str), or empty.
+    """
+    if getattr(h, "position_m", None) is not None:  # a mesh-node place of the structure screen
+        pos = np.asarray(h.position_m, dtype=float)
+    elif isinstance(h.location, str) and h.location in markers:
+        pos = np.asarray(markers[h.location][1], dtype=float)
+    else:
+        return {}
+    sensors = [k for k in markers if sensor_component(k) is not None or "." not in k]
+    nearest = min(sensors, key=lambda k: float(np.linalg.norm(np.asarray(markers[k][1]) - pos)), default=None)
+    out = {"position_m": [round(float(v), 4) for v in pos]}
+    if nearest is not None:
+        out["nearest_sensor"] = nearest
+    return out
+
+
+def _local_element_screened(ctx: CandidateContext):
+    """Return the generic local element at the structure screen's best places, when only it explains it.
+
+    The generic element is otherwise the last candidate of a round, tried only when no catalogue fit
+    is acceptable: with two effects at once, or a catalogue entry that takes part of a dashpot's
+    residual without a bound, that round never comes. A dashpot or spring to ground at a point adds
+    stiffness or damping there, which neither a point mass nor a tuned mass-damper can; where the
+    screen of all three at every place (:func:`~exudyn_study.diagnose.rig_places.screen_places`) finds
+    the local element explaining :data:`LOCAL_MIN_SHARE` of the residual and :data:`LOCAL_MARGIN` more
+    than either catalogue element, it competes with the catalogue's candidates in the round (and is
+    named as outside the catalogue, with the closest catalogue elements of the screen).
+    """
+    best = {}
+    for b in ctx.best_places:
+        best.setdefault(b["kind"], b)
+    local = best.get("local_element")
+    if local is None:
+        return []
+    rivals = [best[k] for k in ("added_mass", "tuned_mass_damper") if k in best]
+    if local["share"] < LOCAL_MIN_SHARE or any(local["share"] < r["share"] + LOCAL_MARGIN for r in rivals):
+        return []
+    from exudyn_study.diagnose.rig_hypotheses import GroundElementHypothesis
+    from exudyn_study.linear.nonlinear import marker_displacement_map
+
+    closest = tuple((f"{r['kind']}@{r['place']}", float(r["share"])) for r in rivals)
+    seen: list = []
+    out = _at_best_places(ctx, "local_element", seen)
+    # and at the strongest located points: a dashpot at a sensor's point is exact there, while the
+    # screen's best places are on a grid (a resonator with its extra parameter fits a near place better)
+    for loc in point_places(ctx, RESONATOR_PLACES):
+        pos = np.asarray(ctx.markers[loc][1], dtype=float)
+        if any(np.linalg.norm(pos - q) < 1e-6 for q in seen):
+            continue
+        h = GroundElementHypothesis(
+            loc,
+            ctx.lin,
+            marker_displacement_map(ctx.model, ctx.markers[loc][0]),
+            {"stiffness_n_per_m": 1e4, "damping_n_s_per_m": 1e3},
+            component=sensor_component(loc),
+            sensors=(loc,),
+        )
+        h.position_m = [float(v) for v in pos]
+        out.append(h)
+    for h in out:
+        h.screen_grid = tuple((k, c) for k in (1e4, 1e6) for c in (30.0, 1e3, 3e4))
+        h.place = point_of(h, ctx.markers)
+        h.closest = closest
+    done = {loc for name, loc in ctx.done if name in ("local_element", "ground_spring_damper")}
+    return [h for h in out if h.location not in done]
 
 
 def _explain_sensor_polarity(h, v, ctx: ExplainContext) -> str:
@@ -1538,6 +1724,12 @@ for _physics, _factory, _explain, _what in (
     ("sensor_delay", _sensor_delay, _explain_sensor_delay, "a located channel recorded late or early"),
 ):
     register_rig_candidate(_physics, _factory, description=_what, explain=_explain)
+register_rig_candidate(
+    "ground_spring_damper",
+    _local_element_screened,
+    description="the generic local element (a spring-damper to ground, outside the catalogue) at the "
+    "structure screen's best places, when neither a point mass nor a tuned mass-damper explains as much",
+)
 register_rig_candidate(
     "tuned_mass_damper",
     _tuned_mass_damper,

@@ -12,7 +12,12 @@ import math
 
 import numpy as np
 
-from exudyn_study.diagnose.rig_candidates import RIG_CANDIDATES, ExplainContext, sensor_component
+from exudyn_study.diagnose.rig_candidates import (
+    RIG_CANDIDATES,
+    ExplainContext,
+    point_of,  # noqa: F401 - the explain stage's name for it
+    sensor_component,
+)
 from exudyn_study.diagnose.rig_compare import BANDS_HZ, drive_spectra
 from exudyn_study.diagnose.rig_hypotheses import Hypothesis, apply_output_frf
 from exudyn_study.diagnose.schema import NOT_IDENTIFIABLE, Finding
@@ -110,37 +115,6 @@ def make_finding(
 def _determined(p: dict) -> bool:
     """Whether the data determine a fitted parameter: its standard deviation below its magnitude."""
     return p["std"] is not None and abs(p["std"]) < abs(p["value"])
-
-
-def point_of(h, markers) -> dict:
-    """Return ``position_m`` and ``nearest_sensor`` of a hypothesis at a point (empty if not at one).
-
-    ``markers``: location -> (marker, global position) of the model (sensors and interfaces).
-
-    Parameters
-    ----------
-    h : Hypothesis
-        The hypothesis (a ``position_m`` attribute, else its ``location`` looked up in ``markers``).
-    markers : dict
-        The model's locations (sensors and interfaces) -> (marker, global position in m).
-
-    Returns
-    -------
-    dict
-        ``position_m`` (list of three floats, m) and ``nearest_sensor`` (str), or empty.
-    """
-    if getattr(h, "position_m", None) is not None:  # a mesh-node place of the structure screen
-        pos = np.asarray(h.position_m, dtype=float)
-    elif isinstance(h.location, str) and h.location in markers:
-        pos = np.asarray(markers[h.location][1], dtype=float)
-    else:
-        return {}
-    sensors = [k for k in markers if sensor_component(k) is not None or "." not in k]
-    nearest = min(sensors, key=lambda k: float(np.linalg.norm(np.asarray(markers[k][1]) - pos)), default=None)
-    out = {"position_m": [round(float(v), 4) for v in pos]}
-    if nearest is not None:
-        out["nearest_sensor"] = nearest
-    return out
 
 
 def explain_local_element(h, p, std, place: dict, closest) -> str:

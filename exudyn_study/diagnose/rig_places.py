@@ -25,7 +25,14 @@ from dataclasses import dataclass
 
 import numpy as np
 
-__all__ = ["Places", "structure_places", "LocalSensitivity", "screen_places", "PLACE_SPACING_M"]
+__all__ = [
+    "Places",
+    "structure_places",
+    "LocalSensitivity",
+    "screen_places",
+    "PLACE_SPACING_M",
+    "TMD_TUNINGS_HZ",
+]
 
 #: candidate places: one mesh node per cube of this edge (m) on every flexible body but the foundation
 #: (with the sensors' nodes)
@@ -54,12 +61,16 @@ class Places:
     maps: tuple
 
 
-def structure_places(model, spacing_m: float = PLACE_SPACING_M, skip=("rear_foundation",)) -> Places:
-    """Return every sensor's node and one mesh node per ``spacing_m`` cube of every flexible body.
+def structure_places(
+    model, spacing_m: float = PLACE_SPACING_M, skip=("rear_foundation",), markers: dict | None = None
+) -> Places:
+    """Return every sensor's node, the frame interfaces and a mesh node per ``spacing_m`` cube of each body.
 
     The model is assembled. Per cube the node nearest the centroid of the body's nodes in it; bodies
     in ``skip`` are left out (the rig's foundation is not the specimen). A sensor's place is named by
-    the sensor (one per point: the first sensor there).
+    the sensor (one per point: the first sensor there); an interface (a patch where a component is
+    attached, such as ``'chassis.front_strut'``) by its location name, with its marker's displacement
+    map (the patch's mean motion), when ``markers`` holds it.
 
     Parameters
     ----------
@@ -69,6 +80,10 @@ def structure_places(model, spacing_m: float = PLACE_SPACING_M, skip=("rear_foun
         Edge length (m) of the cubes one mesh node is taken per (default :data:`PLACE_SPACING_M`).
     skip : tuple of str, optional
         Bodies left out (default: the rig's foundation, ``'rear_foundation'``).
+    markers : dict, optional
+        Location -> (Exudyn marker, global position) of the model's point locations (the diagnosis's
+        :class:`~exudyn_study.diagnose.rig_state.ModelState` ``markers``); its locations that are no
+        sensor (the interfaces) become places too (None: none).
 
     Returns
     -------
@@ -91,6 +106,16 @@ def structure_places(model, spacing_m: float = PLACE_SPACING_M, skip=("rear_foun
         positions.append(pos)
         bodies.append(att.body)
         maps.append(full)
+    if markers:
+        from exudyn_study.linear.nonlinear import marker_displacement_map
+
+        for loc, (marker, pos) in markers.items():
+            if loc in model.sensors or loc.split(".", 1)[0] in skip:
+                continue
+            names.append(loc)
+            positions.append(np.asarray(pos, dtype=float))
+            bodies.append(loc.split(".", 1)[0])
+            maps.append(np.asarray(marker_displacement_map(model, marker), dtype=float))
     for b, handle in model.bodies.items():
         if b in skip:
             continue
@@ -190,10 +215,43 @@ class LocalSensitivity:
         batch = mu.ndim == 2
         mu = np.atleast_2d(mu)  # (g, n_f)
         lhs = np.eye(3)[None, None] - mu[:, :, None, None] * a_mat[None]
-        w = np.linalg.solve(lhs, np.broadcast_to(c_vec, lhs.shape[:2] + (3,))[..., None])[..., 0]
-        dy = -(self.omega[None, :] ** 2 * mu)[:, :, None] * np.einsum("fsj,gfj->gfs", b_mat, w)
+        w = solve3(lhs, np.broadcast_to(c_vec, lhs.shape[:2] + (3,)))
+        # (g, f, s): one batched matrix-vector product per element and frequency (einsum is several
+        # times slower here)
+        dy = -(self.omega[None, :] ** 2 * mu)[:, :, None] * np.matmul(b_mat[None], w[..., None])[..., 0]
         out = self.h0[None] + np.transpose(dy, (0, 2, 1))
         return out if batch else out[0]
+
+
+def solve3(a: np.ndarray, b: np.ndarray) -> np.ndarray:
+    """Solve many 3x3 systems ``a x = b`` at once by Cramer's rule (vectorised; no LAPACK call per system).
+
+    Parameters
+    ----------
+    a : numpy.ndarray
+        Matrices, shape (..., 3, 3).
+    b : numpy.ndarray
+        Right-hand sides, shape (..., 3).
+
+    Returns
+    -------
+    numpy.ndarray
+        Solutions, shape (..., 3) (inf or nan where a matrix is singular).
+    """
+    (a00, a01, a02), (a10, a11, a12), (a20, a21, a22) = (
+        (a[..., i, 0], a[..., i, 1], a[..., i, 2]) for i in range(3)
+    )
+    b0, b1, b2 = b[..., 0], b[..., 1], b[..., 2]
+    # the cofactors (cross products of the rows): x = adj(a) b / det(a)
+    c00, c01, c02 = a11 * a22 - a12 * a21, a12 * a20 - a10 * a22, a10 * a21 - a11 * a20
+    c10, c11, c12 = a21 * a02 - a22 * a01, a22 * a00 - a20 * a02, a20 * a01 - a21 * a00
+    c20, c21, c22 = a01 * a12 - a02 * a11, a02 * a10 - a00 * a12, a00 * a11 - a01 * a10
+    det = a00 * c00 + a01 * c01 + a02 * c02
+    x = np.stack(
+        (c00 * b0 + c10 * b1 + c20 * b2, c01 * b0 + c11 * b1 + c21 * b2, c02 * b0 + c12 * b1 + c22 * b2),
+        axis=-1,
+    )
+    return x / det[..., None]
 
 
 def element_mu(
@@ -218,11 +276,25 @@ def element_mu(
     return omega**2 * mass_kg - stiffness_n_per_m - 1j * omega * damping_n_s_per_m
 
 
-#: elements screened at every place: kind -> list of parameter sets (a coarse grid)
+#: tunings (Hz) of the tuned mass-dampers screened at every place: log-spaced over the diagnosed band,
+#: 12 % apart (a resonator detuned by half a step still takes most of the change it makes in the
+#: log-magnitude FRF: the screen only ranks places, the fit finds the tuning)
+TMD_TUNINGS_HZ = tuple(float(f) for f in np.round(np.geomspace(5.0, 58.0, 22), 2))
+
+#: elements screened at every place: kind -> list of parameter sets (a coarse grid). A tuned
+#: mass-damper's change of the FRFs is a resonance near its tuning, which neither a point mass nor a
+#: spring-damper to ground makes: its place is screened with its own grid (mass x tuning).
 SCREEN_ELEMENTS = {
     "added_mass": [{"mass_kg": m} for m in (2.0, 5.0, 12.0, 30.0)],
+    # dampings a factor of about 3 apart: a dashpot's place ranks by its share, which a grid value far
+    # from its damping understates (nearby places with more or less motion then rank above it)
     "local_element": [
-        {"stiffness_n_per_m": k, "damping_n_s_per_m": c} for k in (0.0, 1e5, 1e6) for c in (300.0, 3e3)
+        {"stiffness_n_per_m": k, "damping_n_s_per_m": c}
+        for k in (0.0, 1e5, 1e6)
+        for c in (300.0, 1e3, 3e3, 1e4)
+    ],
+    "tuned_mass_damper": [
+        {"mass_kg": m, "frequency_hz": f, "damping_ratio": 0.08} for f in TMD_TUNINGS_HZ for m in (3.0, 9.0)
     ],
 }
 
@@ -258,7 +330,10 @@ def screen_places(lin, places: Places, ev_spectral, gains=None, elements=None) -
     def rss(h):  # h (g, n_s, n_f) -> (g,)
         total = np.zeros(h.shape[0])
         for r, log_h, w in zip(ev_spectral.recs, ev_spectral.log_h, ev_spectral.weight, strict=True):
-            hm = np.array([apply_output_frf(x, gains, r.channels, ev_spectral.f) for x in h])
+            if gains is None or isinstance(gains, np.ndarray):  # a gain per channel: one product
+                hm = h if gains is None else h * np.asarray(gains)[None, :, None]
+            else:
+                hm = np.array([apply_output_frf(x, gains, r.channels, ev_spectral.f) for x in h])
             e = w[None] * (np.log(np.abs(hm) + 1e-300) - log_h[None])
             total += np.sum(e**2, axis=(1, 2)) / e[0].size
         return total

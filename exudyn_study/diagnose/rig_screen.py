@@ -148,11 +148,11 @@ def candidate_context(
         from exudyn_study.diagnose.rig_places import screen_places, structure_places
 
         t0 = time.perf_counter()
-        places = structure_places(state.model, problem.settings.place_spacing_m)
+        places = structure_places(state.model, problem.settings.place_spacing_m, markers=state.markers)
         best_places = screen_places(state.lin, places, problem.ev_spectral, state.gains)
         problem.say(
-            f"screened a point mass and a spring-damper to ground at {len(places.names)} places of the "
-            f"structure in {time.perf_counter() - t0:.1f} s"
+            "screened a point mass, a tuned mass-damper and a spring-damper to ground at "
+            f"{len(places.names)} places of the structure in {time.perf_counter() - t0:.1f} s"
         )
     return CandidateContext(
         model=state.model,
@@ -170,7 +170,73 @@ def candidate_context(
         measured_peak=measured_peaks(problem),
         best_places=best_places,
         residual_share=residual_shares(problem, comparison) if comparison is not None else {},
+        coherence=measured_coherence(problem),
+        swap_partner=swap_partners(problem, comparison) if comparison is not None else {},
     )
+
+
+def measured_coherence(problem: RigProblem) -> dict:
+    """Return channel -> median coherence of its measured response with the drive, 3-60 Hz.
+
+    Of the first training recording (Welch, as the spectral evaluator). A channel that records the
+    structure is coherent with the drive; a dead one records noise (coherence near the estimate's bias,
+    about one over the number of segments).
+
+    Parameters
+    ----------
+    problem : RigProblem
+        The training recordings and their channels.
+
+    Returns
+    -------
+    dict
+        Channel -> median coherence (0-1).
+    """
+    from exudyn_study.diagnose.rig_compare import drive_spectra
+
+    r = problem.train_recs[0]
+    k0 = 1000  # the start-up transient left out, as the spectral evaluator does
+    sp = drive_spectra(r.drive.samples[k0:], r.measured[:, k0:])
+    band = (sp.f >= 3.0) & (sp.f <= 60.0)
+    med = np.median(sp.coherence[:, band], axis=1)
+    return {c: float(v) for c, v in zip(r.channels, med, strict=True)}
+
+
+def swap_partners(problem: RigProblem, comparison: Comparison) -> dict:
+    """Return channel -> (the channel whose swap with it fits best, the share of the pair's residual removed).
+
+    The current model's band-limited simulations of two channels exchanged against their measured
+    responses (the relative errors of :func:`~exudyn_study.diagnose.rig_compare.relative_errors`, first
+    training recording): ``1 - (e(a<-b)^2 + e(b<-a)^2) / (e(a)^2 + e(b)^2)``, for all pairs at once
+    from one product of the filtered channels.
+
+    Parameters
+    ----------
+    problem : RigProblem
+        The training recordings.
+    comparison : Comparison
+        The current model against them (its training simulations).
+
+    Returns
+    -------
+    dict
+        Channel -> ``(partner, share)`` (share may be negative: no swap helps).
+    """
+    from exudyn_study.diagnose.rig_compare import band_filter
+
+    r, sim = problem.train_recs[0], comparison.sims_tr[0]
+    m, s_ = band_filter(r.measured), band_filter(sim)
+    n = m.shape[1]
+    scale2 = np.asarray(r.scale, dtype=float) ** 2
+    # e2[a, b]: channel a's squared relative error if it read the simulation of channel b
+    e2 = ((m**2).sum(axis=1)[:, None] + (s_**2).sum(axis=1)[None, :] - 2.0 * m @ s_.T) / n
+    e2 = e2 * scale2[:, None]
+    own = np.diag(e2)
+    before = own[:, None] + own[None, :]
+    share = 1.0 - (e2 + e2.T) / np.maximum(before, 1e-300)
+    np.fill_diagonal(share, -np.inf)
+    best = np.argmax(share, axis=1)
+    return {c: (r.channels[int(best[a])], float(share[a, best[a]])) for a, c in enumerate(r.channels)}
 
 
 def residual_shares(problem: RigProblem, comparison: Comparison) -> dict:

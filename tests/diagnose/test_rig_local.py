@@ -135,3 +135,112 @@ def test_a_dashpot_to_ground_is_found_as_a_local_element_outside_the_catalogue(b
     assert np.linalg.norm(np.asarray(f.location["position_m"]) - true_point) < 0.25
     assert f.parameters["damping_n_s_per_m"]["value"] == pytest.approx(3000.0, rel=0.15)
     assert f.fit["holdout_after"] < 0.5 * f.fit["holdout_before"]
+
+
+def test_the_structure_screen_finds_a_tuned_mass_damper_by_its_resonance(bodies):
+    """Truth: a 6 kg resonator tuned to 23 Hz (between two screened tunings), 7 % damped, at a mesh node
+    away from the sensors; the 'measurement' is its exact FRF (the resonator's coordinates appended).
+    The structure screen's best tuned mass-damper place is within 0.25 m of it and explains most of the
+    log-magnitude residual, clearly more than the best point mass anywhere (a mass cannot make the
+    resonator's new peak), with a tuning within one grid step of the truth."""
+    from types import SimpleNamespace
+
+    from exudyn_study.diagnose.rig_hypotheses import PointResonatorHypothesis
+    from exudyn_study.diagnose.rig_places import TMD_TUNINGS_HZ, screen_places, structure_places
+    from exudyn_study.linear.response import frf_linear
+    from exudyn_study.model import linearise
+
+    model = _model(bodies)
+    lin = linearise(model)
+    places = structure_places(model, spacing_m=0.2)
+    sensor_pos = np.array([places.positions[i] for i, n in enumerate(places.names) if "#" not in n])
+    # the mesh node farthest from every sensor: a place no sensor-point candidate reaches
+    far = [np.min(np.linalg.norm(sensor_pos - p, axis=1)) if "#" in n else 0.0
+           for n, p in zip(places.names, places.positions, strict=True)]
+    k = int(np.argmax(far))
+    tmd = {"mass_kg": 6.0, "frequency_hz": 23.0, "damping_ratio": 0.07}
+    truth = PointResonatorHypothesis(places.names[k], lin, places.maps[k], dict(tmd))
+    f = np.linspace(3.0, 60.0, 229)
+    h_true = frf_linear(truth.system(truth.start), f)[:, 0]
+    assert np.max(np.abs(np.log(np.abs(h_true) / np.abs(frf_linear(lin, f)[:, 0])))) > 0.2  # it is seen
+    ev = SimpleNamespace(
+        recs=[SimpleNamespace(channels=tuple(lin.sensor_names))], f=f,
+        log_h=[np.log(np.abs(h_true))], weight=[np.ones(h_true.shape)],
+    )
+    best = screen_places(lin, places, ev)
+    tmd_best = next(b for b in best if b["kind"] == "tuned_mass_damper")
+    mass_best = next(b for b in best if b["kind"] == "added_mass")
+    assert np.linalg.norm(np.asarray(tmd_best["position_m"]) - places.positions[k]) < 0.25
+    assert tmd_best["share"] > 0.6 and tmd_best["share"] > mass_best["share"] + 0.2
+    step = TMD_TUNINGS_HZ[1] / TMD_TUNINGS_HZ[0]
+    assert 1 / step <= tmd_best["values"]["frequency_hz"] / 23.0 <= step
+
+
+@pytest.mark.parametrize(
+    ("truth", "offered"),
+    [
+        ({"stiffness_n_per_m": 0.0, "damping_n_s_per_m": 4000.0}, True),  # a dashpot to ground
+        ({"mass_kg": 6.0, "frequency_hz": 23.0, "damping_ratio": 0.07}, False),  # a tuned mass-damper
+        ({"mass_kg": 15.0}, False),  # a point mass
+    ],
+)
+def test_the_generic_element_competes_only_where_the_screen_finds_a_local_stiffness(bodies, truth, offered):
+    """The exact FRF of the structure with a dashpot to ground, a resonator or a point mass at a mesh
+    node away from the sensors: the generic local element joins the round's candidates (at a place within
+    0.25 m of the truth, with the screen's closest catalogue elements for its text) only for the dashpot,
+    which adds damping to ground that no point mass or resonator makes."""
+    from types import SimpleNamespace
+
+    from exudyn_study.diagnose.rig_candidates import RIG_CANDIDATES, CandidateContext
+    from exudyn_study.diagnose.rig_hypotheses import (
+        AddedMassHypothesis,
+        GroundElementHypothesis,
+        PointResonatorHypothesis,
+    )
+    from exudyn_study.diagnose.rig_places import screen_places, structure_places
+    from exudyn_study.linear.response import frf_linear
+    from exudyn_study.model import linearise
+    from exudyn_study.physics.entries import location_point
+
+    model = _model(bodies)
+    markers = {s: location_point(model, s) for s in model.sensors}  # before assembly, as the diagnosis
+    lin = linearise(model)
+    places = structure_places(model, spacing_m=0.2)
+    sensor_pos = np.array([places.positions[i] for i, n in enumerate(places.names) if "#" not in n])
+    far = [np.min(np.linalg.norm(sensor_pos - p, axis=1)) if "#" in n else 0.0
+           for n, p in zip(places.names, places.positions, strict=True)]
+    k = int(np.argmax(far))
+    name, p_map = places.names[k], places.maps[k]
+    if "damping_n_s_per_m" in truth:
+        h_truth = GroundElementHypothesis(name, lin, p_map, dict(truth))
+    elif "frequency_hz" in truth:
+        h_truth = PointResonatorHypothesis(name, lin, p_map, dict(truth))
+    else:
+        h_truth = AddedMassHypothesis(name, lin, p_map, start=truth["mass_kg"])
+    f = np.linspace(3.0, 60.0, 229)
+    h_true = frf_linear(h_truth.system(h_truth.start), f)[:, 0]
+    ev = SimpleNamespace(
+        recs=[SimpleNamespace(channels=tuple(lin.sensor_names))], f=f,
+        log_h=[np.log(np.abs(h_true))], weight=[np.ones(h_true.shape)],
+    )
+    ctx = CandidateContext(
+        model=model, lin=lin, build=None, locations=list(markers), markers=markers,
+        sensor_names=tuple(lin.sensor_names), located=[], level_dependent=False,
+        best_places=screen_places(lin, places, ev),
+    )
+    made = RIG_CANDIDATES["ground_spring_damper"].factory(ctx)
+    assert bool(made) == offered
+    if offered:
+        assert all(h.physics == "local_element" for h in made)
+        assert np.linalg.norm(np.asarray(made[0].position_m) - places.positions[k]) < 0.25
+        assert {lab.split("@")[0] for lab, _ in made[0].closest} == {"added_mass", "tuned_mass_damper"}
+
+
+def test_solve3_equals_lapack_on_many_small_systems():
+    """The vectorised Cramer solve of the place screen equals LAPACK's on random complex 3x3 systems."""
+    from exudyn_study.diagnose.rig_places import solve3
+
+    rng = np.random.default_rng(0)
+    a = rng.normal(size=(4, 50, 3, 3)) + 1j * rng.normal(size=(4, 50, 3, 3))
+    b = rng.normal(size=(4, 50, 3)) + 1j * rng.normal(size=(4, 50, 3))
+    np.testing.assert_allclose(solve3(a, b), np.linalg.solve(a, b[..., None])[..., 0], rtol=1e-9, atol=1e-12)

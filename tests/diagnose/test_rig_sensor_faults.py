@@ -83,6 +83,81 @@ def test_faults_are_offered_only_where_their_channels_carry_the_residual():
     assert RIG_CANDIDATES["sensor_polarity"].factory(ctx) == []
 
 
+def _rig_like(measured, drive, sims):
+    """A problem and comparison with one training recording (the attributes the context helpers read)."""
+    from types import SimpleNamespace
+
+    from exudyn_study.diagnose.rig_compare import band_filter
+
+    chans = tuple(f"C{k}" for k in range(measured.shape[0]))
+    rec = SimpleNamespace(
+        channels=chans, measured=measured, drive=SimpleNamespace(samples=drive),
+        scale=1.0 / np.sqrt(np.mean(band_filter(measured) ** 2, axis=1)),
+    )
+    return SimpleNamespace(train_recs=[rec]), SimpleNamespace(sims_tr=[sims]), chans
+
+
+def _broadband(n_ch, seconds=40.0, seed=3):
+    """Drive and responses: each channel the drive through its own 2nd-order resonance (8-50 Hz)."""
+    from scipy import signal
+
+    rng = np.random.default_rng(seed)
+    n = int(seconds * RATE_HZ)
+    u = rng.normal(size=n)
+    ys = []
+    for k, f0 in enumerate(np.geomspace(8.0, 50.0, n_ch)):
+        w0 = 2 * np.pi * f0
+        b, a = signal.bilinear([w0**2], [1.0, 2 * 0.05 * w0, w0**2], RATE_HZ)
+        ys.append((1.0 + 0.3 * k) * signal.lfilter(b, a, u))
+    return u, np.array(ys)
+
+
+def test_a_swap_is_found_from_the_simulations_exchanged():
+    """Measured = the model's simulations with channels C1 and C4 exchanged (a swap's identity): each
+    one's best partner is the other and their swap removes the whole residual of the pair; a channel the
+    model gets right gains nothing from any swap. The swap factory then offers C1/C4 although C4 is not
+    among the located channels (it carries its share of the residual, not a located rank)."""
+    from exudyn_study.diagnose.rig_candidates import RIG_CANDIDATES, SWAP_MIN_SHARE, CandidateContext
+    from exudyn_study.diagnose.rig_screen import swap_partners
+
+    u, sims = _broadband(6)
+    measured = sims.copy()
+    measured[[1, 4]] = sims[[4, 1]]
+    problem, comparison, chans = _rig_like(measured, u, sims)
+    partner = swap_partners(problem, comparison)
+    assert partner["C1"][0] == "C4" and partner["C4"][0] == "C1"
+    assert partner["C1"][1] == pytest.approx(1.0, abs=1e-9) and SWAP_MIN_SHARE < 1.0
+    assert partner["C0"][1] < 0.1  # the model is right there: no exchange helps
+    ctx = CandidateContext(
+        model=None, lin=None, build=None, locations=[], markers={}, sensor_names=chans,
+        located=["C1", "C0"], level_dependent=False, channels=chans,
+        residual_share={"C1": 0.6, "C4": 0.4}, swap_partner=partner,
+    )
+    swaps = [h.location for h in RIG_CANDIDATES["sensor_swap"].factory(ctx)]
+    assert swaps == ["C1/C0", "C1/C4"]
+
+
+def test_a_channel_coherent_with_the_drive_is_not_offered_as_dead():
+    """A dead channel records noise: its median coherence with the drive is near the estimate's bias
+    (about one over the number of Welch segments); a channel that records the structure has coherence
+    near one. Only the first is offered as dead, however large the other's error."""
+    from exudyn_study.diagnose.rig_candidates import DEAD_MAX_COHERENCE, RIG_CANDIDATES, CandidateContext
+    from exudyn_study.diagnose.rig_screen import measured_coherence
+
+    u, ys = _broadband(3)
+    measured = ys.copy()
+    measured[2] = np.random.default_rng(9).normal(scale=0.01, size=u.size)  # dead: noise only
+    problem, _, chans = _rig_like(measured, u, ys)
+    coh = measured_coherence(problem)
+    assert coh["C0"] > 0.9 and coh["C1"] > 0.9 and coh["C2"] < 0.2 < DEAD_MAX_COHERENCE
+    ctx = CandidateContext(
+        model=None, lin=None, build=None, locations=[], markers={}, sensor_names=chans,
+        located=list(chans), level_dependent=False, channels=chans,
+        residual_share={"C0": 0.5, "C1": 0.1, "C2": 0.4}, coherence=coh,
+    )
+    assert [h.location for h in RIG_CANDIDATES["sensor_dead"].factory(ctx)] == ["C2"]
+
+
 @pytest.fixture(scope="module")
 def bodies():
     pytest.importorskip("exudyn")
