@@ -69,6 +69,7 @@ from exudyn_study.diagnose.rig_fit import choose_batch, fit_generic, fit_nonline
 from exudyn_study.diagnose.rig_fit_together import refit_findings
 from exudyn_study.diagnose.rig_hypotheses import OutputChain
 from exudyn_study.diagnose.rig_locate import distortion_shares, is_level_dependent, level_pair, locate
+from exudyn_study.diagnose.rig_pool import evaluation_pool
 from exudyn_study.diagnose.rig_prove import channel_verdict, prove, relative_damage
 from exudyn_study.diagnose.rig_screen import screen
 from exudyn_study.diagnose.rig_settings import RigDiagnosisSettings
@@ -119,7 +120,9 @@ def _check_layouts(named):
             )
 
 
-def _problem(variant, train, holdout, damping, say, bodies, sensors, candidates, st, cache_dir, t_start):
+def _problem(
+    variant, train, holdout, damping, say, bodies, sensors, candidates, st, cache_dir, t_start, pool=None
+):
     """Load and check the recordings, build the nominal model; the diagnosis's :class:`RigProblem`.
 
     Returns
@@ -185,6 +188,7 @@ def _problem(variant, train, holdout, damping, say, bodies, sensors, candidates,
         p_cell=st.p_value / (len(tr) + len(ho)),
         distortion=distortion_shares(train_recs + hold_recs),
         wanted=frozenset(candidates) if candidates is not None else None,
+        pool=pool if pool is not None and pool.parallel else None,
     )
     nominal = replace(nominal, gains=np.ones(len(problem.channels)))
     set_offsets(problem.evaluators, nominal.system)
@@ -499,7 +503,10 @@ def diagnose_rig(
         channels the model lacks.
     """
     st = settings or RigDiagnosisSettings()
-    with StatusProgress(f"diagnosis of Model {variant}") as status:
+    with (
+        StatusProgress(f"diagnosis of Model {variant}") as status,
+        evaluation_pool(st.workers, st.scheduler) as pool,
+    ):
 
         def say(text: str) -> None:
             log.info(text)
@@ -508,15 +515,17 @@ def diagnose_rig(
                 progress(text)
 
         return _diagnose_rig(
-            variant, train, holdout, damping, say, bodies, sensors, candidates, st, cache_dir, figures
+            variant, train, holdout, damping, say, bodies, sensors, candidates, st, cache_dir, figures, pool
         )
 
 
-def _diagnose_rig(variant, train, holdout, damping, say, bodies, sensors, candidates, st, cache_dir, figures):
+def _diagnose_rig(
+    variant, train, holdout, damping, say, bodies, sensors, candidates, st, cache_dir, figures, pool
+):
     """Run the stages of :func:`diagnose_rig`, reporting with ``say(text)``."""
     t_start = time.perf_counter()
     problem, state = _problem(
-        variant, train, holdout, damping, say, bodies, sensors, candidates, st, cache_dir, t_start
+        variant, train, holdout, damping, say, bodies, sensors, candidates, st, cache_dir, t_start, pool
     )
 
     # compare the nominal model; no significant cell: nothing missing

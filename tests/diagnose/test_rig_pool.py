@@ -1,0 +1,113 @@
+"""The rig diagnosis's worker pool: a fit whose finite differences run on worker processes gives the
+serial fit's result bit for bit, and the fitted value is the truth's. Mini frame (Model 1)."""
+
+from __future__ import annotations
+
+import sys
+from pathlib import Path
+
+import numpy as np
+import pytest
+
+from exudyn_study.errors import InputError
+from exudyn_study.virtual_rig import Augment, Scenario, virtual_recording
+
+sys.path.insert(0, str(Path(__file__).resolve().parents[1]))
+from rig_fixtures import FRAME_SENSORS, mini_bodies  # noqa: E402
+
+REAR = {"vertical_stiffness_n_per_m": 5e6, "damping_time_s": 2e-4}
+
+
+@pytest.fixture(scope="module")
+def bodies():
+    pytest.importorskip("exudyn")
+    return mini_bodies()
+
+
+def _rear_support(bodies):
+    """A soft rear support (truth 5e6 N/m) as a recording, and its candidate started 40 % too stiff."""
+    from exudyn_study.bodies.damping import parse_damping
+    from exudyn_study.diagnose.rig_candidates import _rear_support_basis
+    from exudyn_study.diagnose.rig_compare import prepare
+    from exudyn_study.diagnose.rig_evaluate import Evaluator
+    from exudyn_study.diagnose.rig_hypotheses import ConnectorHypothesis
+    from exudyn_study.model import build_model_from_bodies
+    from exudyn_study.physics import entry
+
+    scenario = Scenario(
+        "mini", "test", variant=1, damping="constant-2",
+        augmentations=(Augment("rear_support_compliance", "rear_left", REAR),),
+    ).with_seed(5)
+    train = virtual_recording(scenario, "white-noise", 16.0, bodies=bodies, sensors=FRAME_SENSORS)
+
+    def build():
+        return build_model_from_bodies(
+            bodies, 1, damping=parse_damping("constant-2"), sensors=FRAME_SENSORS, exudyn_mesh="used"
+        )
+
+    h = ConnectorHypothesis(
+        "rear_support_compliance",
+        "rear_left",
+        entry("rear_support_compliance"),
+        build,
+        {"vertical_stiffness_n_per_m": 7e6, "damping_time_s": 1e-4},
+        basis=_rear_support_basis,
+        component="frame",
+        interface="foundation_rear_left",
+    )
+    sensor_names = tuple(build().sensors)
+    recs = [prepare(train, sensor_names, "train", 12.0)]
+    return h, Evaluator(recs, sensor_names, 10.0, exact=True), recs[0].channels
+
+
+def test_a_fit_on_two_worker_processes_is_the_serial_fit_bit_for_bit(bodies):
+    from exudyn_study.diagnose.rig_evaluate import fit_hypothesis
+    from exudyn_study.diagnose.rig_pool import evaluation_pool
+
+    h, ev, channels = _rear_support(bodies)
+    start = h.start.copy()
+    info_serial, info_pool = {}, {}
+    serial = fit_hypothesis(h, ev, channels, 12, info=info_serial)
+    h.start = start
+    with evaluation_pool(2) as pool:
+        assert pool.parallel
+        pooled = fit_hypothesis(h, ev, channels, 12, info=info_pool, pool=pool)
+    for a, b in zip(serial, pooled, strict=True):
+        assert np.array_equal(a, b)
+    assert np.array_equal(info_serial["jac"], info_pool["jac"])
+    # and it is the right fit: the support's stiffness within 5 % of the truth
+    assert serial[0][0] == pytest.approx(REAR["vertical_stiffness_n_per_m"], rel=0.05)
+
+
+def test_an_evaluator_is_resent_when_its_offsets_change(bodies):
+    """The nonlinear findings' correction (``offset``) is part of what the workers evaluate: a changed one
+    gives another residual there too."""
+    from exudyn_study.diagnose.rig_hypotheses import to_params, to_x
+    from exudyn_study.diagnose.rig_pool import evaluation_pool
+
+    h, ev, channels = _rear_support(bodies)
+    x = to_x(h, h.start)
+    with evaluation_pool(2) as pool:
+        before = pool.mapper(h, ev, channels, (1, 0.0))(None, [x])[0]
+        ev.offset = [np.full((len(r.channels), r.measured.shape[1]), 0.1) for r in ev.recs]
+        ev.version += 1
+        after = pool.mapper(h, ev, channels, (1, 0.0))(None, [x])[0]
+    ev._filtered = {}
+    assert np.array_equal(after, ev.residual_vector(h.system(to_params(h, x))))
+    assert not np.array_equal(before, after)
+
+
+def test_a_serial_pool_sends_nothing_and_bad_worker_counts_are_refused():
+    from exudyn_study.diagnose.rig_pool import EvaluationPool
+    from exudyn_study.diagnose.rig_settings import RigDiagnosisSettings
+
+    assert EvaluationPool(1).mapper(None, None, (), (1, 0.0)) is None
+    for bad in (0, 1.5, True):
+        with pytest.raises(InputError, match="workers"):
+            EvaluationPool(bad)
+        with pytest.raises(InputError, match="workers"):
+            RigDiagnosisSettings(workers=bad)
+    with pytest.raises(InputError, match="scheduler"):
+        RigDiagnosisSettings(scheduler=8786)
+    with pytest.raises(InputError, match="no scheduler reachable"):
+        EvaluationPool(2, scheduler="tcp://127.0.0.1:9")
