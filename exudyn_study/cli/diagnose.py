@@ -103,7 +103,7 @@ def configure(parser: argparse.ArgumentParser) -> None:
                         "evaluations (default 1: none; the result does not depend on it)")
     parser.add_argument("--scheduler", default=None, metavar="ADDRESS",
                         help="rig path: run those evaluations on the Dask scheduler at ADDRESS "
-                        "(tcp://host:port) instead of local processes")
+                        "(tcp://host:port) instead of local processes (default: local)")
     add_hidden_alias(parser, "--no-progress", "quiet", action="store_true")  # the one name is --quiet
 
 

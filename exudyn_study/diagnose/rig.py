@@ -328,22 +328,31 @@ def _round(
         something (its findings are in ``progress``), else why the rounds stop.
     """
     t_round = time.perf_counter()
+    stages = _Stages()
     location = locate(problem, comparison)
+    stages.lap("locate")
     screening = screen(problem, state, comparison, location, progress.done(state), round_no)
+    stages.lap("screen")
+    meta["stage_s"]["rounds"].append(stages.seconds)
     if screening is None:
         return state, comparison, progress, "no catalogue candidate applies to the located mismatch"
     ranked = sorted(zip(screening.scores, screening.hyps, strict=True), key=lambda t: -t[0])
     meta["screened_best"] = [[h.label, round(float(score), 4)] for score, h in ranked[:3]]
     fits = fit_round(problem, state, screening, meta, round_no)
+    stages.lap("fit")
     if not fits.ok and screening.deferred:
         # the linear findings refitted together first: the level-dependent share is compared in time, so
         # the nonlinear candidates need the linear model as right as it gets
         state, comparison, progress = refit_findings(problem, state, comparison, progress, meta)
+        stages.lap("final_refit")
         fits = fit_nonlinear(problem, state, screening, fits, meta, round_no)
+        stages.lap("fit_nonlinear")
     if not fits.ok:  # outside the catalogue: the generic local element, the last candidate
         fits = fit_generic(problem, state, screening, fits, meta, round_no)
+        stages.lap("fit_generic")
     elif _stretched(fits):
         fits = _generic_if_better(problem, state, screening, fits, meta, round_no)
+        stages.lap("fit_generic")
     if not fits.ok:
         return (
             state,
@@ -356,8 +365,11 @@ def _round(
             ),
         )
     batch = choose_batch(problem, screening, fits)
+    stages.lap("polish")
     after, comparison_after, batch = _carry_batch(problem, state, screening, fits, batch)
+    stages.lap("carry_compare")
     proof = prove(problem, state, comparison, after, comparison_after, batch)
+    stages.lap("prove")
     if not proof.accepted:
         set_offsets(problem.evaluators, state.system)  # the evaluators back at the round's model
         return state, comparison, progress, proof.reason
@@ -373,6 +385,19 @@ def _round(
     if fits.nonlinear_s is not None:
         meta["rounds"][-1]["nonlinear_s"] = round(fits.nonlinear_s, 1)
     return after, comparison_after, progress, None
+
+
+class _Stages:
+    """Wall time (s) of the stages of a round, in the order they ran (a stage run twice adds up)."""
+
+    def __init__(self):
+        self.seconds: dict = {}
+        self._t = time.perf_counter()
+
+    def lap(self, name: str) -> None:
+        t = time.perf_counter()
+        self.seconds[name] = round(self.seconds.get(name, 0.0) + t - self._t, 2)
+        self._t = t
 
 
 def _finish(problem, state, comparison, nominal_sims_ho, progress, stop_reason, meta, figures) -> Diagnosis:
@@ -524,14 +549,19 @@ def _diagnose_rig(
 ):
     """Run the stages of :func:`diagnose_rig`, reporting with ``say(text)``."""
     t_start = time.perf_counter()
+    stages = _Stages()
     problem, state = _problem(
         variant, train, holdout, damping, say, bodies, sensors, candidates, st, cache_dir, t_start, pool
     )
+    stages.lap("setup")
 
     # compare the nominal model; no significant cell: nothing missing
     say("comparing the nominal model with the recordings")
     comparison = nominal = compare(problem, state.system, None)
     meta = _nominal_meta(problem, damping, comparison)
+    stages.lap("compare_nominal")
+    meta["workers"] = pool.describe()
+    meta["stage_s"] = {**stages.seconds, "rounds": []}
     if figures is not None:
         figures_before(
             figures,
@@ -576,5 +606,10 @@ def _diagnose_rig(
             break
 
     # the linear findings refitted together; what is left, proven on the held-out recordings
+    stages = _Stages()
     state, comparison, findings = refit_findings(problem, state, comparison, findings, meta)
-    return _finish(problem, state, comparison, nominal.sims_ho, findings, stop_reason, meta, figures)
+    stages.lap("final_refit")
+    diagnosis = _finish(problem, state, comparison, nominal.sims_ho, findings, stop_reason, meta, figures)
+    stages.lap("finish")
+    meta["stage_s"].update(stages.seconds)
+    return diagnosis

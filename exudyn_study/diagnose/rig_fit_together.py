@@ -699,8 +699,12 @@ def refit_findings(
 
     Tried free first (every parameter may move); if that is not adopted, again with the parameters
     that ended at a bound in their rounds held there (freed, the undetermined ones can wander on the
-    noise). A refit is adopted if it lowers the training residual and does not raise the held-out
-    error; ``meta['final_refit']`` records the attempts.
+    noise). Fitted on log transmissibilities when the model is far off (training error above
+    ``spectral_above_error``), else on time histories: with ``final_refit_short`` those of the shorter
+    training records of the nonlinear fits (the refit's cost is one evaluation per parameter and step).
+    A refit is adopted if it lowers the residual it was fitted on and does not raise the held-out error
+    (nor, fitted on the shorter records, the error on the full training records);
+    ``meta['final_refit']`` records the attempts.
 
     Parameters
     ----------
@@ -730,7 +734,9 @@ def refit_findings(
     progress = replace(progress, refitted=linear)
     t_refit = time.perf_counter()
     error_now = float(np.mean([summary_error(e) for e in problem.ev_train.errors(comparison.sims_tr)]))
-    ev_final = problem.ev_spectral if error_now > st.spectral_above_error else problem.ev_train
+    ev_time = problem.ev_train_nonlinear if st.final_refit_short else problem.ev_train
+    duration = st.train_duration_nonlinear_s if st.final_refit_short else st.train_duration_s
+    ev_final = problem.ev_spectral if error_now > st.spectral_above_error else ev_time
     hold_before = float(np.mean([summary_error(e) for e in problem.ev_hold.errors(comparison.sims_ho)]))
     tried, refit, adopted = [], None, False
     for hold in (False, True):
@@ -751,7 +757,9 @@ def refit_findings(
             break
         refit["meta"]["holdout_before"] = hold_before
         refit["meta"]["evaluator"] = (
-            "log transmissibilities" if ev_final is problem.ev_spectral else "time histories"
+            "log transmissibilities"
+            if ev_final is problem.ev_spectral
+            else f"time histories ({duration:g} s per recording)"
         )
         adopted = False
         if refit["rss_after"] < refit["rss_before"]:
@@ -760,8 +768,13 @@ def refit_findings(
             new_state = model_state(problem, tuple(accepted), state.gains)
             new = compare(problem, new_state.system, new_state.gains)
             hold_after = float(np.mean([summary_error(e) for e in problem.ev_hold.errors(new.sims_ho)]))
-            refit["meta"]["holdout_after"] = hold_after
-            adopted = hold_after <= hold_before
+            train_after = float(np.mean([summary_error(e) for e in problem.ev_train.errors(new.sims_tr)]))
+            refit["meta"].update(
+                holdout_after=hold_after, train_error_before=error_now, train_error_after=train_after
+            )
+            # fitted on a share of the training records: the full ones must not get worse either
+            short = ev_final is problem.ev_train_nonlinear
+            adopted = hold_after <= hold_before and (train_after <= error_now or not short)
             if adopted:
                 state, comparison = new_state, new
             else:  # the rounds' model back: its evaluators' nonlinear correction (state, comparison kept)
