@@ -763,7 +763,7 @@ def combined_gains(h: Hypothesis, p, channels):
     return OutputChain.of(base).then(g)  # the faults found before, then this one
 
 
-def fit_per_recording(h: Hypothesis, p, firm_good, ev, channels, st, jac=None) -> dict | None:
+def fit_per_recording(h: Hypothesis, p, firm_good, ev, channels, st, jac=None, pool=None) -> dict | None:
     """Fit ``h`` on each recording of ``ev`` alone and tell whether its parameters drift between them.
 
     Each recording's fit starts at the pooled fit ``p``: with ``jac`` (the pooled Jacobian in the
@@ -798,6 +798,8 @@ def fit_per_recording(h: Hypothesis, p, firm_good, ev, channels, st, jac=None) -
         Settings (``drift_nfev``, ``drift_sigma``, ``drift_rel_tol``).
     jac : numpy.ndarray or None, optional
         The pooled Jacobian in the fitting variable, shape (n_rows, n_params) (None: finite differences).
+    pool : EvaluationPool or None, optional
+        Workers for the finite differences (None: this process).
 
     Returns
     -------
@@ -833,7 +835,12 @@ def fit_per_recording(h: Hypothesis, p, firm_good, ev, channels, st, jac=None) -
             for p_start in starts:
                 h.start = np.clip(p_start, h.lower, h.upper)
                 p_k, s_k, rss_k, _, _ = fit_hypothesis(
-                    h, sub, channels, st.drift_nfev, jac=(lambda x, j=jac[rows]: j) if use_jac else None
+                    h,
+                    sub,
+                    channels,
+                    st.drift_nfev,
+                    jac=(lambda x, j=jac[rows]: j) if use_jac else None,
+                    pool=pool,
                 )
                 if best is None or rss_k < best[2]:
                     best = (p_k, s_k, rss_k)

@@ -336,7 +336,9 @@ def check_drift(problem: RigProblem, screening: Screening, fitted: list) -> None
             return
         for f in todo:
             ev = screening.judged_on(f["h"])[0]
-            f["drift"] = fit_per_recording(f["h"], f["p"], f["good"], ev, problem.channels, st)
+            f["drift"] = fit_per_recording(
+                f["h"], f["p"], f["good"], ev, problem.channels, st, pool=problem.pool
+            )
             if f["drift"] is not None and f["drift"]["drifting"]:
                 f["rejected"] = f"its parameters drift between the training recordings ({f['drift']['text']})"
                 problem.say(f"{f['h'].label}: {f['rejected']}")

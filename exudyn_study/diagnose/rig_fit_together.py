@@ -734,8 +734,9 @@ def refit_findings(
     progress = replace(progress, refitted=linear)
     t_refit = time.perf_counter()
     error_now = float(np.mean([summary_error(e) for e in problem.ev_train.errors(comparison.sims_tr)]))
-    ev_time = problem.ev_train_nonlinear if st.final_refit_short else problem.ev_train
-    duration = st.train_duration_nonlinear_s if st.final_refit_short else st.train_duration_s
+    short = st.final_refit_short and st.train_duration_nonlinear_s < st.train_duration_s
+    ev_time = problem.ev_train_nonlinear if short else problem.ev_train
+    duration = st.train_duration_nonlinear_s if short else st.train_duration_s
     ev_final = problem.ev_spectral if error_now > st.spectral_above_error else ev_time
     hold_before = float(np.mean([summary_error(e) for e in problem.ev_hold.errors(comparison.sims_ho)]))
     tried, refit, adopted = [], None, False
@@ -773,8 +774,8 @@ def refit_findings(
                 holdout_after=hold_after, train_error_before=error_now, train_error_after=train_after
             )
             # fitted on a share of the training records: the full ones must not get worse either
-            short = ev_final is problem.ev_train_nonlinear
-            adopted = hold_after <= hold_before and (train_after <= error_now or not short)
+            on_share = short and ev_final is ev_time
+            adopted = hold_after <= hold_before and (train_after <= error_now or not on_share)
             if adopted:
                 state, comparison = new_state, new
             else:  # the rounds' model back: its evaluators' nonlinear correction (state, comparison kept)

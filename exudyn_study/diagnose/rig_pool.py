@@ -48,10 +48,16 @@ log = logging.getLogger(__name__)
 #: thread variables set to 1 in the spawned workers (unless already set), as the sweep's workers
 THREAD_VARS = ("OMP_NUM_THREADS", "OPENBLAS_NUM_THREADS", "MKL_NUM_THREADS", "NUMEXPR_NUM_THREADS")
 
+#: evaluators the pool keeps sent (the diagnosis's training, spectral and shorter-record ones, ...)
+EVALUATORS_KEPT = 4
 #: contexts (evaluators, candidates) a local worker keeps loaded
-WORKER_MEMO = 4
+WORKER_MEMO = EVALUATORS_KEPT + 1
 
 _memo: dict = {}  # in a worker: context path -> object (at most WORKER_MEMO)
+
+
+class NotSendable(Exception):
+    """An object the local workers cannot receive (it holds something pickle cannot write)."""
 
 
 class EvaluationPool:
@@ -133,9 +139,10 @@ class EvaluationPool:
         if not self.parallel:
             return None
         try:
-            ev_ref = self._context(("ev", id(ev), getattr(ev, "version", 0)), ev, keep=True)
-            h_ref = self._context(("h", next(self._count)), h, keep=False)
-        except (pickle.PicklingError, TypeError, AttributeError) as exc:
+            ev_ref = self._context(("ev", id(ev), getattr(ev, "version", 0)), ev)
+            # a candidate is sent for each fit (between fits its output gains or start may change)
+            h_ref = self._context(("h", next(self._count)), h)
+        except NotSendable as exc:
             log.debug("evaluations of %s stay serial: %s", getattr(h, "label", h), exc)
             return None
         header = (tuple(channels), int(penalty[0]), float(penalty[1]))
@@ -146,29 +153,40 @@ class EvaluationPool:
 
         return m
 
-    def _context(self, key, obj, keep: bool):
-        """Send ``obj`` to the workers once; its reference (a file path or a Dask future)."""
+    def _context(self, key, obj):
+        """Send ``obj`` to the workers once; its reference (a file path or a Dask future).
+
+        The pool holds the objects it sent (so that the identity in an evaluator's ``key`` names no
+        other object while it is kept): the last candidate, and the last :data:`EVALUATORS_KEPT`
+        evaluators.
+        """
+        if key in self._contexts and self._contexts[key][0] is obj:
+            return self._contexts[key][1]
         if key in self._contexts:
-            return self._contexts[key]
-        if not keep:  # a candidate: only the last one's context is kept
-            for k in [k for k in self._contexts if k[0] == "h"]:
-                self._drop(k)
+            self._drop(key)
+        kind = key[0]
+        same_kind = [k for k in self._contexts if k[0] == kind]
+        if kind == "ev":  # an evaluator whose state changed: its older state goes
+            same_kind = [k for k in same_kind if k[1] == key[1]] + same_kind[: -EVALUATORS_KEPT + 1]
+        for k in dict.fromkeys(same_kind):
+            self._drop(k)
         if self._client is not None:
             ref = self._client.scatter(obj, broadcast=True, hash=False)
         else:
+            try:
+                data = pickle.dumps(obj, protocol=pickle.HIGHEST_PROTOCOL)
+            except (pickle.PicklingError, TypeError, AttributeError) as exc:  # a local function in it
+                raise NotSendable(str(exc)) from None
             if self._dir is None:
                 self._dir = Path(tempfile.mkdtemp(prefix="exudyn_study_pool_"))
-            ref = str(self._dir / f"{key[0]}-{len(self._contexts)}-{next(self._count)}.pkl")
+            ref = str(self._dir / f"{kind}-{next(self._count)}.pkl")
             with open(ref, "wb") as f:
-                pickle.dump(obj, f, protocol=pickle.HIGHEST_PROTOCOL)
-        if keep:  # an evaluator: at most two (its state changes with the model's nonlinear findings)
-            for k in [k for k in self._contexts if k[0] == "ev" and k[1] == key[1]]:
-                self._drop(k)
-        self._contexts[key] = ref
+                f.write(data)
+        self._contexts[key] = (obj, ref)
         return ref
 
     def _drop(self, key) -> None:
-        ref = self._contexts.pop(key)
+        _, ref = self._contexts.pop(key)
         if self._client is None:
             with contextlib.suppress(OSError):
                 os.remove(ref)

@@ -100,10 +100,10 @@ class RigDiagnosisSettings:
     final_nfev : int
         Function evaluations of that final joint refit.
     final_refit_short : bool
-        The final joint refit in the time domain fits on the shorter training records of the nonlinear
-        fits (``train_duration_nonlinear_s``: each evaluation that much cheaper, one per parameter and
-        step) and is kept only if the full training records' error and the held-out error do not rise;
-        False: it fits on the full training records (``train_duration_s``).
+        The final joint refit in the time domain fits on the training records of the nonlinear fits
+        when they are the shorter (``train_duration_nonlinear_s``: each evaluation that much cheaper, one
+        per parameter and step) and is kept only if the full training records' error and the held-out
+        error do not rise; False: it fits on the full training records (``train_duration_s``).
     nonlinear_holdout_tolerance : float
         A nonlinear finding fitted on the level-dependent share is proven on that share at a held-out
         level (it must explain ``min_improvement`` of it there); the held-out error may then grow by

@@ -111,3 +111,46 @@ def test_a_serial_pool_sends_nothing_and_bad_worker_counts_are_refused():
         RigDiagnosisSettings(scheduler=8786)
     with pytest.raises(InputError, match="no scheduler reachable"):
         EvaluationPool(2, scheduler="tcp://127.0.0.1:9")
+
+
+def test_a_diagnosis_on_two_workers_is_the_serial_diagnosis(bodies):
+    """Both rear supports soft (5e6 and 8e6 N/m), two findings refitted together at the end on the shorter
+    records (8 of 12 s): serially and on two worker processes the same findings with the same values, bit
+    for bit; both stiffnesses within 10 % of the truth; the stages' wall times recorded."""
+    from dataclasses import replace
+
+    from exudyn_study.diagnose.rig import RigDiagnosisSettings, diagnose_rig
+
+    truth = {"rear_left": 5e6, "rear_right": 8e6}
+    sc = Scenario(
+        "mini", "test", variant=1, damping="constant-2",
+        augmentations=tuple(
+            Augment("rear_support_compliance", side, {**REAR, "vertical_stiffness_n_per_m": k})
+            for side, k in truth.items()
+        ),
+    ).with_seed(5)
+    kw = {"bodies": bodies, "sensors": FRAME_SENSORS}
+    train = virtual_recording(sc, "white-noise", 16.0, **kw)
+    hold = virtual_recording(sc, "test", 16.0, **kw)
+    st = RigDiagnosisSettings(train_duration_s=12.0, screen_duration_s=8.0, train_duration_nonlinear_s=8.0)
+    runs = [
+        diagnose_rig(
+            1, [train], [hold], damping="constant-2", bodies=bodies, sensors=FRAME_SENSORS, settings=s,
+            candidates=("rear_support_compliance",),
+        )
+        for s in (st, replace(st, workers=2))
+    ]
+    serial, pooled = ([(f.physics, f.location["interface"], f.parameters) for f in d.findings] for d in runs)
+    assert serial == pooled
+    assert runs[0].metadata["final_refit"]["parameters"] == runs[1].metadata["final_refit"]["parameters"]
+    assert runs[0].metadata["final_holdout_error"] == runs[1].metadata["final_holdout_error"]
+    assert "8 s per recording" in runs[0].metadata["final_refit"]["evaluator"]
+    found = {f.location["interface"]: f for f in runs[0].findings}
+    for side, k in truth.items():
+        assert found[f"foundation_{side}"].parameters["vertical_stiffness_n_per_m"]["value"] == pytest.approx(
+            k, rel=0.1
+        )
+    assert runs[1].metadata["workers"].startswith("2 local")
+    stages = runs[0].metadata["stage_s"]
+    assert {"setup", "compare_nominal", "final_refit", "finish"} <= set(stages)
+    assert stages["rounds"] and {"locate", "screen", "fit", "prove"} <= set(stages["rounds"][0])
