@@ -39,7 +39,7 @@ processes or a Dask cluster (:mod:`exudyn_study.diagnose.rig_pool`; the result i
 
 Run: ``python3 benchmarks/bench_diagnose_thesis.py [--out DIR] [--recordings DIR] [--duration S]
 [--protocol levels|original] [--time-budget S] [--scenario thesis|thesis-iso|thesis-dry]
-[--no-all-prior-start] [--workers N] [--scheduler ADDRESS] [--no-results]``
+[--no-all-prior-start] [--workers N] [--scheduler ADDRESS] [--reuse-recordings] [--no-results]``
 (``--recordings`` reuses recordings written by an earlier run, only if its truth file is the scenario's
 and its ``recording_code.json`` holds the hash of the current recording code, i.e. the package's sources
 but the diagnosis and the EMA; else new ones are written). Results: ``DIR/thesis_diagnosis.json``, the
@@ -197,6 +197,12 @@ def main(argv=None) -> int:
                     help="local worker processes for the fits' residual evaluations (default 1: none)")
     ap.add_argument("--scheduler", default=None, metavar="ADDRESS",
                     help="a Dask scheduler (tcp://host:port) for those evaluations instead")
+    ap.add_argument(
+        "--reuse-recordings",
+        action="store_true",
+        help="reuse the --recordings of this scenario even if other code wrote them (their "
+        f"{CODE_VERSION_FILE} differs; recorded in the results as recordings_code_checked false)",
+    )
     ap.add_argument("--no-results", action="store_true", help="do not write benchmarks/results/*.json")
     args = ap.parse_args(argv)
     from results import start_run, write_results  # benchmarks/results.py, beside this script
@@ -216,7 +222,7 @@ def main(argv=None) -> int:
     reason = None
     if truth_file.exists() and not _same_truth(truth_file, sc):
         reason = f"are of another version of the {sc.name} scenario (its truth file differs from scenario())"
-    elif truth_file.exists() and not _same_code(rec_dir, code_hash):
+    elif truth_file.exists() and not _same_code(rec_dir, code_hash) and not args.reuse_recordings:
         # the same truth file, but other code may write other recordings of it, and a diagnosis of those
         # would not be the current code's
         reason = f"were written by other code (no {CODE_VERSION_FILE} there, or another hash of its sources)"
@@ -434,6 +440,7 @@ def main(argv=None) -> int:
             "pseudo_damage": summary,
             "acceptance": accept,
             "wall_recordings_s": t_rec,
+            "recordings_code_checked": written or _same_code(rec_dir, code_hash),
             "wall_diagnosis_s": wall,
             "workers": d.metadata.get("workers"),
             "stage_s": stage_s,
