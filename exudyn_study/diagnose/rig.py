@@ -609,6 +609,7 @@ def _diagnose_rig(
     stages = _Stages()
     state, comparison, findings = refit_findings(problem, state, comparison, findings, meta)
     stages.lap("final_refit")
+    meta["worker_evaluations"] = pool.evaluations
     diagnosis = _finish(problem, state, comparison, nominal.sims_ho, findings, stop_reason, meta, figures)
     stages.lap("finish")
     meta["stage_s"].update(stages.seconds)

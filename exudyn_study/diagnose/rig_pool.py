@@ -12,7 +12,9 @@ runs its points:
 - Dask: ``distributed.Client(scheduler)``; the workers need the package installed.
 
 The evaluator (the recordings) and the candidate (its matrices) go to the workers once per fit,
-not per evaluation: locally as a pickle file each worker reads once and keeps, on Dask scattered to
+not per evaluation: locally as a pickle file each worker reads once and keeps (written with
+``cloudpickle``, installed with Dask, when it is there: candidate classes defined inside functions
+need it; without it such a candidate's fit stays in the calling process), on Dask scattered to
 every worker; a task sends only the parameter vector. The workers never build the model or load
 the flexible bodies. :meth:`EvaluationPool.mapper` returns the map-like callable that
 :func:`scipy.optimize.least_squares` takes as ``workers``: the points of a Jacobian are the points
@@ -87,6 +89,7 @@ class EvaluationPool:
         self._dir = None
         self._contexts: dict = {}  # key -> path (local) or scattered future (Dask)
         self._count = itertools.count()
+        self.evaluations = 0  # residual evaluations the workers made
         if scheduler is not None:
             from exudyn_study.sweep.config import check_scheduler
 
@@ -109,6 +112,7 @@ class EvaluationPool:
         if self._client is not None:
             return f"Dask at {self.scheduler}"
         return f"{self.workers} local worker process(es)" if self.parallel else "the calling process"
+
 
     def mapper(self, h, ev, channels, penalty: tuple):
         """Return a map-like callable evaluating ``h``'s residual on ``ev`` in the workers (None: serially).
@@ -149,6 +153,7 @@ class EvaluationPool:
 
         def m(fun, xs):  # noqa: ARG001 - the workers evaluate what ``fun`` would
             xs = [np.array(x, dtype=float) for x in xs]
+            self.evaluations += len(xs)
             return self._map(ev_ref, h_ref, header, xs)
 
         return m
@@ -173,9 +178,13 @@ class EvaluationPool:
         if self._client is not None:
             ref = self._client.scatter(obj, broadcast=True, hash=False)
         else:
+            try:  # cloudpickle (installed with Dask) writes classes defined in functions, pickle cannot
+                import cloudpickle as writer
+            except ImportError:
+                writer = pickle
             try:
-                data = pickle.dumps(obj, protocol=pickle.HIGHEST_PROTOCOL)
-            except (pickle.PicklingError, TypeError, AttributeError) as exc:  # a local function in it
+                data = writer.dumps(obj, protocol=pickle.HIGHEST_PROTOCOL)
+            except (pickle.PicklingError, TypeError, AttributeError) as exc:  # e.g. a lock in it
                 raise NotSendable(str(exc)) from None
             if self._dir is None:
                 self._dir = Path(tempfile.mkdtemp(prefix="exudyn_study_pool_"))

@@ -151,6 +151,25 @@ def test_a_diagnosis_on_two_workers_is_the_serial_diagnosis(bodies):
             k, rel=0.1
         )
     assert runs[1].metadata["workers"].startswith("2 local")
+    assert runs[1].metadata["worker_evaluations"] > 0 and runs[0].metadata["worker_evaluations"] == 0
     stages = runs[0].metadata["stage_s"]
     assert {"setup", "compare_nominal", "final_refit", "finish"} <= set(stages)
     assert stages["rounds"] and {"locate", "screen", "fit", "prove"} <= set(stages["rounds"][0])
+
+
+def test_a_fit_on_a_dask_cluster_is_the_serial_fit_bit_for_bit(bodies):
+    """The same fit through a Dask scheduler (a local cluster with one worker process): the serial result."""
+    distributed = pytest.importorskip("distributed")
+    from exudyn_study.diagnose.rig_evaluate import fit_hypothesis
+    from exudyn_study.diagnose.rig_pool import evaluation_pool
+
+    h, ev, channels = _rear_support(bodies)
+    start = h.start.copy()
+    serial = fit_hypothesis(h, ev, channels, 6)
+    h.start = start
+    with distributed.LocalCluster(n_workers=1, threads_per_worker=1, dashboard_address=None) as cluster:
+        with evaluation_pool(scheduler=cluster.scheduler_address) as pool:
+            assert pool.parallel and pool.describe().startswith("Dask at tcp://")
+            pooled = fit_hypothesis(h, ev, channels, 6, pool=pool)
+    for a, b in zip(serial, pooled, strict=True):
+        assert np.array_equal(a, b)
