@@ -388,7 +388,10 @@ def main(argv=None) -> int:
         )
     print(f"final held-out error {d.metadata.get('final_holdout_error')}")
     stage_s = d.metadata.get("stage_s", {})
-    print(f"evaluations on {d.metadata.get('workers')}; wall time per stage (s): {json.dumps(stage_s)}")
+    print(
+        f"evaluations on {d.metadata.get('workers')} ({d.metadata.get('worker_evaluations')} there); CPU "
+        f"time (s) {d.metadata.get('cpu_s')}; wall time per stage (s): {json.dumps(stage_s)}"
+    )
     print(f"diagnosis wall time {wall:.0f} s (load {_load()}); acceptance {accept}")
     result = {
         "findings": rows,
@@ -443,6 +446,7 @@ def main(argv=None) -> int:
             "recordings_code_checked": written or _same_code(rec_dir, code_hash),
             "wall_diagnosis_s": wall,
             "workers": d.metadata.get("workers"),
+            "cpu_diagnosis_s": d.metadata.get("cpu_s"),
             "stage_s": stage_s,
         }
         case = f"{sc.name}-{args.protocol}" + (

@@ -41,6 +41,7 @@ explain (:mod:`~exudyn_study.diagnose.rig_explain`); settings in
 from __future__ import annotations
 
 import logging
+import os
 import time
 from collections.abc import Callable, Sequence
 from dataclasses import replace
@@ -528,6 +529,7 @@ def diagnose_rig(
         channels the model lacks.
     """
     st = settings or RigDiagnosisSettings()
+    cpu0 = os.times()
     with (
         StatusProgress(f"diagnosis of Model {variant}") as status,
         evaluation_pool(st.workers, st.scheduler) as pool,
@@ -539,9 +541,21 @@ def diagnose_rig(
             if progress is not None:
                 progress(text)
 
-        return _diagnose_rig(
+        diagnosis = _diagnose_rig(
             variant, train, holdout, damping, say, bodies, sensors, candidates, st, cache_dir, figures, pool
         )
+        dask = pool.scheduler is not None
+    # CPU time of this process and of the local workers (counted once they have ended, with the pool)
+    cpu1 = os.times()
+    cpu_s = {
+        "diagnosis": round(cpu1.user + cpu1.system - cpu0.user - cpu0.system, 1),
+        "local_workers": None
+        if dask
+        else round(
+            cpu1.children_user + cpu1.children_system - cpu0.children_user - cpu0.children_system, 1
+        ),
+    }
+    return replace(diagnosis, metadata={**diagnosis.metadata, "cpu_s": cpu_s})
 
 
 def _diagnose_rig(

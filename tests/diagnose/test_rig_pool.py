@@ -152,6 +152,7 @@ def test_a_diagnosis_on_two_workers_is_the_serial_diagnosis(bodies):
         )
     assert runs[1].metadata["workers"].startswith("2 local")
     assert runs[1].metadata["worker_evaluations"] > 0 and runs[0].metadata["worker_evaluations"] == 0
+    assert runs[1].metadata["cpu_s"]["local_workers"] > 0 and runs[0].metadata["cpu_s"]["diagnosis"] > 0
     stages = runs[0].metadata["stage_s"]
     assert {"setup", "compare_nominal", "final_refit", "finish"} <= set(stages)
     assert stages["rounds"] and {"locate", "screen", "fit", "prove"} <= set(stages["rounds"][0])
