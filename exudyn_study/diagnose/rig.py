@@ -493,7 +493,8 @@ def diagnose_rig(
 
     Runs with one BLAS thread (:func:`~exudyn_study.infra.blas.one_blas_thread`): the work is
     thousands of small (~100x100) eigen/solve problems, which multi-threaded BLAS makes
-    several times slower on a shared machine.
+    several times slower on a shared machine. The metadata holds the wall time per stage
+    (``stage_s``) and the CPU time of this process and of the local workers (``cpu_s``).
 
     Parameters
     ----------
@@ -511,7 +512,9 @@ def diagnose_rig(
     candidates : sequence of str, optional
         Catalogue entries to consider (default all the rig path can fit).
     settings : RigDiagnosisSettings, optional
-        Knobs (default :class:`RigDiagnosisSettings`).
+        Knobs (default :class:`RigDiagnosisSettings`); its ``workers`` or ``scheduler`` run the fits'
+        residual evaluations on local worker processes or a Dask cluster
+        (:mod:`~exudyn_study.diagnose.rig_pool`; the result is the serial one).
     cache_dir : path, optional
         Flexible-body cache.
     figures : dict, optional
@@ -526,7 +529,7 @@ def diagnose_rig(
     ------
     InputError
         No training or held-out recording, different sensor layouts, no drive channel,
-        channels the model lacks.
+        channels the model lacks, an unreachable scheduler.
     """
     st = settings or RigDiagnosisSettings()
     cpu0 = os.times()
