@@ -87,7 +87,7 @@ class EvaluationPool:
         self._executor = None
         self._client = None
         self._dir = None
-        self._contexts: dict = {}  # key -> path (local) or scattered future (Dask)
+        self._contexts: dict = {}  # key -> (object sent, its file path or Dask future)
         self._count = itertools.count()
         self.evaluations = 0  # residual evaluations the workers made
         if scheduler is not None:
