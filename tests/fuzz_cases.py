@@ -818,7 +818,14 @@ def cases(work: Path) -> list[Case]:
             ("--signal", "sweep"),
         ],
         "demo": [("--seed", "-1"), ("--mesh", "1e-9"), ("--seed", "9" * 30)],
-        "diagnose": [("--resolution", "0"), ("--resolution", "1e9"), ("--model", "7"), ("--interface", "A2")],
+        "diagnose": [
+            ("--resolution", "0"),
+            ("--resolution", "1e9"),
+            ("--model", "7"),
+            ("--interface", "A2"),
+            ("--workers", "0"),
+            ("--workers", "1e9"),
+        ],
         "sweep": [("--workers", "0"), ("--workers", "1e9")],
     }
     base_args = {
@@ -909,6 +916,10 @@ def cases(work: Path) -> list[Case]:
         "tcp://127.0.0.1:9",
     )
     add("sweep", "sweep", "scheduler not a url", "S.toml", "--out", "new", "--scheduler", "localhost")
+    rig = ("--model", "1", "--train", "G.h5", "--holdout", "F.h5", "--json", "o.json")
+    add("sweep", "diagnose", "scheduler unreachable", *rig, "--scheduler", "tcp://127.0.0.1:9")
+    add("sweep", "diagnose", "scheduler not a url", *rig, "--scheduler", "http://somewhere")
+    add("sweep", "diagnose", "workers on the modal path", *base_args["diagnose"], "--workers", "2")
     add("sweep", "sweep", "plot-x not swept", "S.toml", "--out", "new", "--plot-x", "size")
     add("cache", "sweep", "cache dir is a file", "S.toml", "--out", "new", "--cache-dir", "blocker")
     add("sweep", "sweep", "config missing", "missing.toml", "--out", "new")

@@ -33,6 +33,7 @@ from exudyn_study.errors import InputError
 
 __all__ = ["configure", "run"]
 
+WORKERS = Bounded(int, 1, 1024, "", "a count of local worker processes")
 RESOLUTION = Bounded(float, 0.005, 10.0, "Hz", "finer than 0.005 Hz needs records of hours per average; "
                      "coarser than 10 Hz resolves no structural mode")
 
@@ -97,6 +98,12 @@ def configure(parser: argparse.ArgumentParser) -> None:
                         "whole periods")
     parser.add_argument("--excitation", choices=("auto", "periodic", "random"), default="auto",
                         help="levels: FRF estimate for a periodic (multisine) or random drive")
+    parser.add_argument("--workers", type=WORKERS, default=None, metavar="N",
+                        help="rig path (--model 1|2|3): local worker processes for the fits' residual "
+                        "evaluations (default 1: none; the result does not depend on it)")
+    parser.add_argument("--scheduler", default=None, metavar="ADDRESS",
+                        help="rig path: run those evaluations on the Dask scheduler at ADDRESS "
+                        "(tcp://host:port) instead of local processes (default: local)")
     add_hidden_alias(parser, "--no-progress", "quiet", action="store_true")  # the one name is --quiet
 
 
@@ -152,6 +159,7 @@ def run(args: argparse.Namespace) -> int:
             "not used for fitting (another level or signal): add --holdout REC"
         )
     interfaces = _parse_interfaces(args.interface)
+    _check_pool_options(args, variant)
     inputs = {"--train": args.train, "--holdout": args.holdout, "--model modal:": ref_path}
     with OutputSet(inputs=inputs) as outputs:
         json_path = outputs.file(args.json, "--json")
@@ -191,6 +199,10 @@ def _diagnose(args: argparse.Namespace, variant, ref_path, interfaces):
         cache_dir(args.cache_dir)
         kwargs = {"progress": None if quiet else write_line,
                   "cache_dir": args.cache_dir}
+        if args.workers is not None or args.scheduler is not None:
+            from exudyn_study.diagnose.rig_settings import RigDiagnosisSettings
+
+            kwargs["settings"] = RigDiagnosisSettings(workers=args.workers or 1, scheduler=args.scheduler)
         if "figures" in inspect.signature(rig.diagnose_rig).parameters:
             kwargs["figures"] = figures
         return rig.diagnose_rig(variant, train, holdout, **kwargs), figures
@@ -218,6 +230,22 @@ def _diagnose(args: argparse.Namespace, variant, ref_path, interfaces):
         drive_point=args.drive_point,
     )
     return diagnosis, figures
+
+
+def _check_pool_options(args: argparse.Namespace, variant) -> None:
+    """Refuse ``--workers``/``--scheduler`` outside the rig path; check the scheduler before any work."""
+    if args.workers is None and args.scheduler is None:
+        return
+    option = "--workers" if args.workers is not None else "--scheduler"
+    if not isinstance(variant, int):
+        raise InputError(
+            f"{option}: only the rig path (--model 1, 2 or 3) runs on worker processes; omit {option} "
+            f"with --model {args.model}"
+        )
+    if args.scheduler is not None:
+        from exudyn_study.sweep.config import check_scheduler
+
+        args.scheduler = check_scheduler(args.scheduler)
 
 
 def _quiet(args: argparse.Namespace) -> bool:

@@ -41,6 +41,7 @@ explain (:mod:`~exudyn_study.diagnose.rig_explain`); settings in
 from __future__ import annotations
 
 import logging
+import os
 import time
 from collections.abc import Callable, Sequence
 from dataclasses import replace
@@ -69,6 +70,7 @@ from exudyn_study.diagnose.rig_fit import choose_batch, fit_generic, fit_nonline
 from exudyn_study.diagnose.rig_fit_together import refit_findings
 from exudyn_study.diagnose.rig_hypotheses import OutputChain
 from exudyn_study.diagnose.rig_locate import distortion_shares, is_level_dependent, level_pair, locate
+from exudyn_study.diagnose.rig_pool import evaluation_pool
 from exudyn_study.diagnose.rig_prove import channel_verdict, prove, relative_damage
 from exudyn_study.diagnose.rig_screen import screen
 from exudyn_study.diagnose.rig_settings import RigDiagnosisSettings
@@ -119,7 +121,9 @@ def _check_layouts(named):
             )
 
 
-def _problem(variant, train, holdout, damping, say, bodies, sensors, candidates, st, cache_dir, t_start):
+def _problem(
+    variant, train, holdout, damping, say, bodies, sensors, candidates, st, cache_dir, t_start, pool=None
+):
     """Load and check the recordings, build the nominal model; the diagnosis's :class:`RigProblem`.
 
     Returns
@@ -185,6 +189,7 @@ def _problem(variant, train, holdout, damping, say, bodies, sensors, candidates,
         p_cell=st.p_value / (len(tr) + len(ho)),
         distortion=distortion_shares(train_recs + hold_recs),
         wanted=frozenset(candidates) if candidates is not None else None,
+        pool=pool if pool is not None and pool.parallel else None,
     )
     nominal = replace(nominal, gains=np.ones(len(problem.channels)))
     set_offsets(problem.evaluators, nominal.system)
@@ -330,22 +335,31 @@ def _round(
         something (its findings are in ``progress``), else why the rounds stop.
     """
     t_round = time.perf_counter()
+    stages = _Stages()
     location = locate(problem, comparison)
+    stages.lap("locate")
     screening = screen(problem, state, comparison, location, progress.done(state), round_no)
+    stages.lap("screen")
+    meta["stage_s"]["rounds"].append(stages.seconds)
     if screening is None:
         return state, comparison, progress, "no catalogue candidate applies to the located mismatch"
     ranked = sorted(zip(screening.scores, screening.hyps, strict=True), key=lambda t: -t[0])
     meta["screened_best"] = [[h.label, round(float(score), 4)] for score, h in ranked[:3]]
     fits = fit_round(problem, state, screening, meta, round_no)
+    stages.lap("fit")
     if not fits.ok and screening.deferred:
         # the linear findings refitted together first: the level-dependent share is compared in time, so
         # the nonlinear candidates need the linear model as right as it gets
         state, comparison, progress = refit_findings(problem, state, comparison, progress, meta)
+        stages.lap("final_refit")
         fits = fit_nonlinear(problem, state, screening, fits, meta, round_no)
+        stages.lap("fit_nonlinear")
     if not fits.ok:  # outside the catalogue: the generic local element, the last candidate
         fits = fit_generic(problem, state, screening, fits, meta, round_no)
+        stages.lap("fit_generic")
     elif _stretched(fits):
         fits = _generic_if_better(problem, state, screening, fits, meta, round_no)
+        stages.lap("fit_generic")
     if not fits.ok:
         return (
             state,
@@ -358,8 +372,11 @@ def _round(
             ),
         )
     batch = choose_batch(problem, screening, fits)
+    stages.lap("polish")
     after, comparison_after, batch = _carry_batch(problem, state, screening, fits, batch)
+    stages.lap("carry_compare")
     proof = prove(problem, state, comparison, after, comparison_after, batch)
+    stages.lap("prove")
     if not proof.accepted:
         set_offsets(problem.evaluators, state.system)  # the evaluators back at the round's model
         return state, comparison, progress, proof.reason
@@ -375,6 +392,19 @@ def _round(
     if fits.nonlinear_s is not None:
         meta["rounds"][-1]["nonlinear_s"] = round(fits.nonlinear_s, 1)
     return after, comparison_after, progress, None
+
+
+class _Stages:
+    """Wall time (s) of the stages of a round, in the order they ran (a stage run twice adds up)."""
+
+    def __init__(self):
+        self.seconds: dict = {}
+        self._t = time.perf_counter()
+
+    def lap(self, name: str) -> None:
+        t = time.perf_counter()
+        self.seconds[name] = round(self.seconds.get(name, 0.0) + t - self._t, 2)
+        self._t = t
 
 
 def _finish(problem, state, comparison, nominal_sims_ho, progress, stop_reason, meta, figures) -> Diagnosis:
@@ -469,7 +499,8 @@ def diagnose_rig(
 
     Runs with one BLAS thread (:func:`~exudyn_study.infra.blas.one_blas_thread`): the work is
     thousands of small (~100x100) eigen/solve problems, which multi-threaded BLAS makes
-    several times slower on a shared machine.
+    several times slower on a shared machine. The metadata holds the wall time per stage
+    (``stage_s``) and the CPU time of this process and of the local workers (``cpu_s``).
 
     Parameters
     ----------
@@ -487,7 +518,9 @@ def diagnose_rig(
     candidates : sequence of str, optional
         Catalogue entries to consider (default all the rig path can fit).
     settings : RigDiagnosisSettings, optional
-        Knobs (default :class:`RigDiagnosisSettings`).
+        Knobs (default :class:`RigDiagnosisSettings`); its ``workers`` or ``scheduler`` run the fits'
+        residual evaluations on local worker processes or a Dask cluster
+        (:mod:`~exudyn_study.diagnose.rig_pool`; the result is the serial one).
     cache_dir : path, optional
         Flexible-body cache.
     figures : dict, optional
@@ -502,10 +535,14 @@ def diagnose_rig(
     ------
     InputError
         No training or held-out recording, different sensor layouts, no drive channel,
-        channels the model lacks.
+        channels the model lacks, an unreachable scheduler.
     """
     st = settings or RigDiagnosisSettings()
-    with StatusProgress(f"diagnosis of Model {variant}") as status:
+    cpu0 = os.times()
+    with (
+        StatusProgress(f"diagnosis of Model {variant}") as status,
+        evaluation_pool(st.workers, st.scheduler) as pool,
+    ):
 
         def say(text: str) -> None:
             log.info(text)
@@ -513,22 +550,41 @@ def diagnose_rig(
             if progress is not None:
                 progress(text)
 
-        return _diagnose_rig(
-            variant, train, holdout, damping, say, bodies, sensors, candidates, st, cache_dir, figures
+        diagnosis = _diagnose_rig(
+            variant, train, holdout, damping, say, bodies, sensors, candidates, st, cache_dir, figures, pool
         )
+        dask = pool.scheduler is not None
+    # CPU time of this process and of the local workers (counted once they have ended, with the pool)
+    cpu1 = os.times()
+    cpu_s = {
+        "diagnosis": round(cpu1.user + cpu1.system - cpu0.user - cpu0.system, 1),
+        "local_workers": None
+        if dask
+        else round(
+            cpu1.children_user + cpu1.children_system - cpu0.children_user - cpu0.children_system, 1
+        ),
+    }
+    return replace(diagnosis, metadata={**diagnosis.metadata, "cpu_s": cpu_s})
 
 
-def _diagnose_rig(variant, train, holdout, damping, say, bodies, sensors, candidates, st, cache_dir, figures):
+def _diagnose_rig(
+    variant, train, holdout, damping, say, bodies, sensors, candidates, st, cache_dir, figures, pool
+):
     """Run the stages of :func:`diagnose_rig`, reporting with ``say(text)``."""
     t_start = time.perf_counter()
+    stages = _Stages()
     problem, state = _problem(
-        variant, train, holdout, damping, say, bodies, sensors, candidates, st, cache_dir, t_start
+        variant, train, holdout, damping, say, bodies, sensors, candidates, st, cache_dir, t_start, pool
     )
+    stages.lap("setup")
 
     # compare the nominal model; no significant cell: nothing missing
     say("comparing the nominal model with the recordings")
     comparison = nominal = compare(problem, state.system, None)
     meta = _nominal_meta(problem, damping, comparison)
+    stages.lap("compare_nominal")
+    meta["workers"] = pool.describe()
+    meta["stage_s"] = {**stages.seconds, "rounds": []}
     if figures is not None:
         figures_before(
             figures,
@@ -573,5 +629,11 @@ def _diagnose_rig(variant, train, holdout, damping, say, bodies, sensors, candid
             break
 
     # the linear findings refitted together; what is left, proven on the held-out recordings
+    stages = _Stages()
     state, comparison, findings = refit_findings(problem, state, comparison, findings, meta)
-    return _finish(problem, state, comparison, nominal.sims_ho, findings, stop_reason, meta, figures)
+    stages.lap("final_refit")
+    meta["worker_evaluations"] = pool.evaluations
+    diagnosis = _finish(problem, state, comparison, nominal.sims_ho, findings, stop_reason, meta, figures)
+    stages.lap("finish")
+    meta["stage_s"].update(stages.seconds)
+    return diagnosis

@@ -79,6 +79,7 @@ class Evaluator:
         self._cache = {}
         self._filtered = {}  # recording index -> (simulation, its filtered residual): residual_vector
         self.offset = None  # per recording: added to linear simulations (see set_offsets)
+        self.version = 0  # counts the changes of ``offset`` (a worker pool resends the evaluator then)
         self.spectra = []
         for r in recordings:
             n = r.drive.samples.size
@@ -90,6 +91,13 @@ class Evaluator:
             f = np.fft.rfftfreq(n_fft, 1.0 / RATE_HZ)
             keep = f <= self.F_MAX_HZ
             self.spectra.append((n, n_fft, f[keep], spec[keep]))
+
+    def __getstate__(self):
+        """Return the evaluator's state without its caches (what a worker process needs)."""
+        state = dict(self.__dict__)
+        state.update(_cache={}, _filtered={})
+        state.pop("_offsets", None)
+        return state
 
     def simulate(self, lin, gains=None):
         """Simulate ``lin`` (output ``gains``) at each recording; list of (n_channels, n_samples) arrays.
@@ -361,11 +369,15 @@ class DistortionEvaluator:
         return e.ravel() / math.sqrt(e.size)
 
 
-def fit_hypothesis(h: Hypothesis, ev: Evaluator, channels, max_nfev=30, jac=None, info: dict | None = None):
+def fit_hypothesis(
+    h: Hypothesis, ev: Evaluator, channels, max_nfev=30, jac=None, info: dict | None = None, pool=None
+):
     """Fit ``h`` on ``ev`` from ``h.start``: (p, std, rss, at_bound, nfev).
 
     ``jac``: a Jacobian callable in the fitting variable (default finite differences: one
     evaluation per parameter and iteration); ``info`` gets the final Jacobian (``'jac'``).
+    ``pool``: the finite differences' evaluations run on its workers (the same points and
+    arithmetic: the result is the serial fit's).
 
     Parameters
     ----------
@@ -381,6 +393,9 @@ def fit_hypothesis(h: Hypothesis, ev: Evaluator, channels, max_nfev=30, jac=None
         Jacobian ``jac(x)`` in the fitting variable (None: two-point finite differences).
     info : dict or None, optional
         If given, receives the final Jacobian under ``'jac'``.
+    pool : EvaluationPool or None, optional
+        Workers for the finite-difference evaluations (:mod:`~exudyn_study.diagnose.rig_pool`;
+        None: this process).
 
     Returns
     -------
@@ -407,6 +422,9 @@ def fit_hypothesis(h: Hypothesis, ev: Evaluator, channels, max_nfev=30, jac=None
         r = safe_residual(h, ev, channels, to_params(h, x))
         return penalty if r is None else r  # an unstable parameter set: far worse than any response
 
+    workers = None
+    if pool is not None and jac is None:
+        workers = pool.mapper(h, ev, channels, (penalty.size, float(penalty[0])))
     res = least_squares(
         fun,
         x0,
@@ -415,6 +433,7 @@ def fit_hypothesis(h: Hypothesis, ev: Evaluator, channels, max_nfev=30, jac=None
         diff_step=1e-3,
         max_nfev=max_nfev,
         x_scale=1.0,
+        workers=workers,
     )
     if info is not None:
         info["jac"] = res.jac
@@ -709,6 +728,7 @@ def set_offsets(evaluators, system) -> None:
                 ev.offset = [a - b for a, b in zip(nonlinear, tangent, strict=True)]
                 ev._cache = {("exact", id(system)): (system, nonlinear)}  # compare() needs them next
         ev._offsets = [(system, ev.offset, dict(ev._cache))] + memo[: OFFSET_MEMO - 1]
+        ev.version = getattr(ev, "version", 0) + 1
 
 
 #: systems whose offsets an evaluator keeps (:func:`set_offsets`)
@@ -743,7 +763,7 @@ def combined_gains(h: Hypothesis, p, channels):
     return OutputChain.of(base).then(g)  # the faults found before, then this one
 
 
-def fit_per_recording(h: Hypothesis, p, firm_good, ev, channels, st, jac=None) -> dict | None:
+def fit_per_recording(h: Hypothesis, p, firm_good, ev, channels, st, jac=None, pool=None) -> dict | None:
     """Fit ``h`` on each recording of ``ev`` alone and tell whether its parameters drift between them.
 
     Each recording's fit starts at the pooled fit ``p``: with ``jac`` (the pooled Jacobian in the
@@ -778,6 +798,8 @@ def fit_per_recording(h: Hypothesis, p, firm_good, ev, channels, st, jac=None) -
         Settings (``drift_nfev``, ``drift_sigma``, ``drift_rel_tol``).
     jac : numpy.ndarray or None, optional
         The pooled Jacobian in the fitting variable, shape (n_rows, n_params) (None: finite differences).
+    pool : EvaluationPool or None, optional
+        Workers for the finite differences (None: this process).
 
     Returns
     -------
@@ -813,7 +835,12 @@ def fit_per_recording(h: Hypothesis, p, firm_good, ev, channels, st, jac=None) -
             for p_start in starts:
                 h.start = np.clip(p_start, h.lower, h.upper)
                 p_k, s_k, rss_k, _, _ = fit_hypothesis(
-                    h, sub, channels, st.drift_nfev, jac=(lambda x, j=jac[rows]: j) if use_jac else None
+                    h,
+                    sub,
+                    channels,
+                    st.drift_nfev,
+                    jac=(lambda x, j=jac[rows]: j) if use_jac else None,
+                    pool=pool,
                 )
                 if best is None or rss_k < best[2]:
                     best = (p_k, s_k, rss_k)

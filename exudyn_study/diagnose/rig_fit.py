@@ -32,7 +32,7 @@ from exudyn_study.diagnose.rig_screen import hypotheses_of, screen_score
 from exudyn_study.diagnose.rig_state import ModelState, RigProblem, RoundFits, Screening
 
 
-def fit_on_distortion(cands, ctx, ev_d, ev_time, channels, system, gains, st, say, meta, round_no):
+def fit_on_distortion(cands, ctx, ev_d, ev_time, channels, system, gains, st, say, meta, round_no, pool=None):
     """Screen and fit simulated (nonlinear) candidates on the level-dependent share of the response.
 
     ``ev_d`` (:class:`DistortionEvaluator`) compares the measured and simulated differences
@@ -67,6 +67,8 @@ def fit_on_distortion(cands, ctx, ev_d, ev_time, channels, system, gains, st, sa
         The diagnosis metadata; the fits are appended to ``meta['candidates']``.
     round_no : int
         Index of the round (0 for the first).
+    pool : EvaluationPool or None, optional
+        Workers for the fits' finite differences (None: this process).
     """
     hyps = [h for cand in cands for h in hypotheses_of(cand, ctx)]
     if not hyps:
@@ -83,7 +85,7 @@ def fit_on_distortion(cands, ctx, ev_d, ev_time, channels, system, gains, st, sa
     for i in order[: st.n_fit_simulated]:
         h = hyps[i]
         say(f"fitting {h.label} on the level-dependent share (screening score {scores[i]:.3f})")
-        p, std, rss, at_bound, nfev = fit_hypothesis(h, ev_d, channels, st.fit_nfev_simulated)
+        p, std, rss, at_bound, nfev = fit_hypothesis(h, ev_d, channels, st.fit_nfev_simulated, pool=pool)
         rel_std = np.abs(std) / np.maximum(np.abs(p), 1e-300)
         firm = np.array([n not in h.may_vanish for n in h.names], dtype=bool)
         good = (rel_std < st.max_relative_std) & ~at_bound
@@ -138,7 +140,7 @@ def fit_on_distortion(cands, ctx, ev_d, ev_time, channels, system, gains, st, sa
     return out
 
 
-def polish(f: dict, ev: Evaluator, channels, recs, st, say) -> None:
+def polish(f: dict, ev: Evaluator, channels, recs, st, say, pool=None) -> None:
     """Refine a fit found on log transmissibilities in the time domain, if that keeps the response on.
 
     Near the truth the time-domain fit is the sharper one (the blind benchmark's single
@@ -160,11 +162,13 @@ def polish(f: dict, ev: Evaluator, channels, recs, st, say) -> None:
         Settings (``polish_nfev``, ``min_response_ratio``, ``max_relative_std``).
     say : callable
         Progress messages, ``say(text)``.
+    pool : EvaluationPool or None, optional
+        Workers for the fit's finite differences (None: this process).
     """
     h = f["h"]
     h.start = np.asarray(f["p"], dtype=float)
     say(f"polishing {h.label} in the time domain")
-    p, std, rss, at_bound, _ = fit_hypothesis(h, ev, channels, st.polish_nfev)
+    p, std, rss, at_bound, _ = fit_hypothesis(h, ev, channels, st.polish_nfev, pool=pool)
     if not (rss < f["rss_time"] and np.isfinite(rss)):
         return
     sims = ev.simulate(h.system(p), combined_gains(h, p, channels))
@@ -247,10 +251,10 @@ def fit_one(problem: RigProblem, screening: Screening, i: int) -> dict:
     ev_fit, rss0, spectral = screening.judged_on(h)
     problem.say(f"fitting {h.label} (screening score {screening.scores[i]:.3f})")
     if h.kind_linear:
-        p, std, rss, at_bound, nfev = fit_hypothesis(h, ev_fit, channels, st.fit_nfev)
+        p, std, rss, at_bound, nfev = fit_hypothesis(h, ev_fit, channels, st.fit_nfev, pool=problem.pool)
     else:  # simulated in time: fitted on shorter records, judged on the full training records
         p, std, _, at_bound, nfev = fit_hypothesis(
-            h, problem.ev_train_nonlinear, channels, st.fit_nfev_simulated
+            h, problem.ev_train_nonlinear, channels, st.fit_nfev_simulated, pool=problem.pool
         )
     rel_std = np.abs(std) / np.maximum(np.abs(p), 1e-300)
     firm = np.array([n not in h.may_vanish for n in h.names], dtype=bool)
@@ -332,7 +336,9 @@ def check_drift(problem: RigProblem, screening: Screening, fitted: list) -> None
             return
         for f in todo:
             ev = screening.judged_on(f["h"])[0]
-            f["drift"] = fit_per_recording(f["h"], f["p"], f["good"], ev, problem.channels, st)
+            f["drift"] = fit_per_recording(
+                f["h"], f["p"], f["good"], ev, problem.channels, st, pool=problem.pool
+            )
             if f["drift"] is not None and f["drift"]["drifting"]:
                 f["rejected"] = f"its parameters drift between the training recordings ({f['drift']['text']})"
                 problem.say(f"{f['h'].label}: {f['rejected']}")
@@ -413,6 +419,7 @@ def fit_round(
         problem.say,
         meta,
         round_no,
+        pool=problem.pool,
     )
     return RoundFits(tuple(fitted), tuple(ok), together=bool(ok))
 
@@ -459,6 +466,7 @@ def fit_nonlinear(
         problem.say,
         meta,
         round_no,
+        pool=problem.pool,
     )
     ok = [f for f in fitted_nl if f["rejected"] is None]
     return RoundFits(fits.fitted + tuple(fitted_nl), tuple(ok), nonlinear_s=time.perf_counter() - t0)
@@ -491,7 +499,13 @@ def choose_batch(problem: RigProblem, screening: Screening, fits: RoundFits) -> 
         for f in batch:
             if f["h"].kind_linear and screening.judged_on(f["h"])[2]:
                 polish(
-                    f, problem.ev_train, problem.channels, problem.train_recs, problem.settings, problem.say
+                    f,
+                    problem.ev_train,
+                    problem.channels,
+                    problem.train_recs,
+                    problem.settings,
+                    problem.say,
+                    problem.pool,
                 )
     return batch
 

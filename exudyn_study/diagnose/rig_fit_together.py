@@ -115,6 +115,7 @@ def fit_together(
     say,
     meta,
     round_no,
+    pool=None,
 ):
     """Fit the best-screened linear candidates at different places together; their acceptable members.
 
@@ -167,6 +168,8 @@ def fit_together(
         The diagnosis metadata; the members are appended to ``meta['candidates']``.
     round_no : int
         Index of the round (0 for the first).
+    pool : EvaluationPool or None, optional
+        Workers for the fits' finite differences (None: this process).
     """
     from exudyn_study.diagnose.rig_hypotheses import CompositeHypothesis
 
@@ -193,10 +196,10 @@ def fit_together(
         say(f"the candidates cannot be combined: {exc}")
         return []
     comp.base_gains = gains
-    jf = _fit_from_starts(comp, members, ev_fit, channels, st, say)
+    jf = _fit_from_starts(comp, members, ev_fit, channels, st, say, pool)
     if not math.isfinite(jf.rss):
         return []
-    jf, pinned = _hold_pinned_damping(comp, jf, ev_fit, channels, st, say)
+    jf, pinned = _hold_pinned_damping(comp, jf, ev_fit, channels, st, say, pool)
     hold_errs = holdout_errors(ev_hold, comp.system(jf.p), gains)
     verdicts, held_out = _member_verdicts(
         comp, members, jf, pinned, hold_errs, ev_fit, ev_hold, channels, gains, st, say
@@ -290,7 +293,7 @@ def _joint_members(hyps, scores, st) -> list:
     return members
 
 
-def _fit_from_starts(comp, members, ev_fit, channels, st, say) -> JointFit:
+def _fit_from_starts(comp, members, ev_fit, channels, st, say, pool=None) -> JointFit:
     """Fit the composite from its start and (``composite_prior_start``) from prior starts; the lowest wins.
 
     More starts: the best-screened physics at its prior start, the others at their screening optima
@@ -301,14 +304,16 @@ def _fit_from_starts(comp, members, ev_fit, channels, st, say) -> JointFit:
     every start. ``comp.start`` is left at the winning start.
     """
     info = {}
-    p, std, rss, at_bound, nfev = fit_hypothesis(comp, ev_fit, channels, st.fit_nfev_composite, info=info)
+    p, std, rss, at_bound, nfev = fit_hypothesis(
+        comp, ev_fit, channels, st.fit_nfev_composite, info=info, pool=pool
+    )
     if st.composite_prior_start:
         start_a = comp.start.copy()
         best_start = start_a
         for ordinal, what, start in prior_starts(comp, members, start_a, st.composite_all_prior_start):
             comp.start = start
             info_b = {}
-            fit_b = fit_hypothesis(comp, ev_fit, channels, st.fit_nfev_composite, info=info_b)
+            fit_b = fit_hypothesis(comp, ev_fit, channels, st.fit_nfev_composite, info=info_b, pool=pool)
             say(f"  {ordinal} start ({what}): training residual {fit_b[2]:.4g} against {rss:.4g}")
             nfev += fit_b[4]
             if fit_b[2] < rss:
@@ -318,7 +323,7 @@ def _fit_from_starts(comp, members, ev_fit, channels, st, say) -> JointFit:
     return JointFit(p, std, rss, at_bound, info.get("jac"), nfev)
 
 
-def _hold_pinned_damping(comp, jf: JointFit, ev_fit, channels, st, say) -> tuple:
+def _hold_pinned_damping(comp, jf: JointFit, ev_fit, channels, st, say, pool=None) -> tuple:
     """Hold damping times that ran to their upper bound at their start and refit the others.
 
     A damping time at its upper bound: the data want more damping than that spring plausibly gives
@@ -348,7 +353,7 @@ def _hold_pinned_damping(comp, jf: JointFit, ev_fit, channels, st, say) -> tuple
     sub.start = np.clip(np.delete(p, list(pinned)), sub.lower, sub.upper)
     info_sub = {}
     p_sub, std_sub, rss_sub, at_sub, nfev_sub = fit_hypothesis(
-        sub, ev_fit, channels, st.fit_nfev_composite, info=info_sub
+        sub, ev_fit, channels, st.fit_nfev_composite, info=info_sub, pool=pool
     )
     if not math.isfinite(rss_sub):
         return jf, {}
@@ -497,7 +502,7 @@ def _member_rejected(rec: dict, hold_err: float, hold_err0: float, st) -> str | 
 
 
 def final_refit(
-    records, accepted, build, ev, channels, gains, st, say, hold_at_bound: bool = True
+    records, accepted, build, ev, channels, gains, st, say, hold_at_bound: bool = True, pool=None
 ) -> dict | None:
     """Refit the linear findings carried into the model together; judge them again.
 
@@ -531,6 +536,8 @@ def final_refit(
         Progress messages, ``say(text)``.
     hold_at_bound : bool, optional
         Whether parameters that ended at a bound in their round are held there (default True).
+    pool : EvaluationPool or None, optional
+        Workers for the refit's finite differences (None: this process).
 
     Returns
     -------
@@ -589,7 +596,7 @@ def final_refit(
     if r0 is None:
         return None
     info = {}
-    p, std, rss, at_bound, nfev = fit_hypothesis(comp, ev, channels, st.final_nfev, info=info)
+    p, std, rss, at_bound, nfev = fit_hypothesis(comp, ev, channels, st.final_nfev, info=info, pool=pool)
     # at a bound: within 1 % of the parameter's (log) range of it (the solver stops short of the bound
     # when the residual flattens there, e.g. a mass the data do not want running to its lower bound)
     _, lo, hi = log_bounds(comp)
@@ -692,8 +699,12 @@ def refit_findings(
 
     Tried free first (every parameter may move); if that is not adopted, again with the parameters
     that ended at a bound in their rounds held there (freed, the undetermined ones can wander on the
-    noise). A refit is adopted if it lowers the training residual and does not raise the held-out
-    error; ``meta['final_refit']`` records the attempts.
+    noise). Fitted on log transmissibilities when the model is far off (training error above
+    ``spectral_above_error``), else on time histories: with ``final_refit_short`` those of the shorter
+    training records of the nonlinear fits (the refit's cost is one evaluation per parameter and step).
+    A refit is adopted if it lowers the residual it was fitted on and does not raise the held-out error
+    (nor, fitted on the shorter records, the error on the full training records);
+    ``meta['final_refit']`` records the attempts.
 
     Parameters
     ----------
@@ -723,19 +734,33 @@ def refit_findings(
     progress = replace(progress, refitted=linear)
     t_refit = time.perf_counter()
     error_now = float(np.mean([summary_error(e) for e in problem.ev_train.errors(comparison.sims_tr)]))
-    ev_final = problem.ev_spectral if error_now > st.spectral_above_error else problem.ev_train
+    short = st.final_refit_short and st.train_duration_nonlinear_s < st.train_duration_s
+    ev_time = problem.ev_train_nonlinear if short else problem.ev_train
+    duration = st.train_duration_nonlinear_s if short else st.train_duration_s
+    ev_final = problem.ev_spectral if error_now > st.spectral_above_error else ev_time
     hold_before = float(np.mean([summary_error(e) for e in problem.ev_hold.errors(comparison.sims_ho)]))
     tried, refit, adopted = [], None, False
     for hold in (False, True):
         accepted = list(state.accepted)
         refit = final_refit(
-            records, accepted, problem.build, ev_final, problem.channels, state.gains, st, say, hold
+            records,
+            accepted,
+            problem.build,
+            ev_final,
+            problem.channels,
+            state.gains,
+            st,
+            say,
+            hold,
+            problem.pool,
         )
         if refit is None:
             break
         refit["meta"]["holdout_before"] = hold_before
         refit["meta"]["evaluator"] = (
-            "log transmissibilities" if ev_final is problem.ev_spectral else "time histories"
+            "log transmissibilities"
+            if ev_final is problem.ev_spectral
+            else f"time histories ({duration:g} s per recording)"
         )
         adopted = False
         if refit["rss_after"] < refit["rss_before"]:
@@ -744,8 +769,13 @@ def refit_findings(
             new_state = model_state(problem, tuple(accepted), state.gains)
             new = compare(problem, new_state.system, new_state.gains)
             hold_after = float(np.mean([summary_error(e) for e in problem.ev_hold.errors(new.sims_ho)]))
-            refit["meta"]["holdout_after"] = hold_after
-            adopted = hold_after <= hold_before
+            train_after = float(np.mean([summary_error(e) for e in problem.ev_train.errors(new.sims_tr)]))
+            refit["meta"].update(
+                holdout_after=hold_after, train_error_before=error_now, train_error_after=train_after
+            )
+            # fitted on a share of the training records: the full ones must not get worse either
+            on_share = short and ev_final is ev_time
+            adopted = hold_after <= hold_before and (train_after <= error_now or not on_share)
             if adopted:
                 state, comparison = new_state, new
             else:  # the rounds' model back: its evaluators' nonlinear correction (state, comparison kept)

@@ -99,6 +99,11 @@ class RigDiagnosisSettings:
         bound in their rounds held there.
     final_nfev : int
         Function evaluations of that final joint refit.
+    final_refit_short : bool
+        The final joint refit in the time domain fits on the training records of the nonlinear fits
+        when they are the shorter (``train_duration_nonlinear_s``: each evaluation that much cheaper, one
+        per parameter and step) and is kept only if the full training records' error and the held-out
+        error do not rise; False: it fits on the full training records (``train_duration_s``).
     nonlinear_holdout_tolerance : float
         A nonlinear finding fitted on the level-dependent share is proven on that share at a held-out
         level (it must explain ``min_improvement`` of it there); the held-out error may then grow by
@@ -128,6 +133,13 @@ class RigDiagnosisSettings:
         (:mod:`~exudyn_study.diagnose.rig_places`); the best places join the candidates.
     place_spacing_m : float
         Spacing of those places (m).
+    workers : int
+        Local worker processes for the fits' residual evaluations (the finite-difference Jacobians:
+        one evaluation per parameter; :mod:`~exudyn_study.diagnose.rig_pool`); 1: all in the
+        diagnosis's process. The result does not depend on it.
+    scheduler : str or None
+        Address of a running Dask scheduler (``tcp://host:port``) to run those evaluations on instead
+        (``workers`` is then ignored); None: local.
     """
 
     train_duration_s: float = 40.0
@@ -160,6 +172,7 @@ class RigDiagnosisSettings:
     drift_nfev: int = 10
     final_refit: bool = True
     final_nfev: int = 20
+    final_refit_short: bool = True
     nonlinear_holdout_tolerance: float = 0.05
     min_effect: float = 0.005
     p_value: float = 1e-3
@@ -168,14 +181,23 @@ class RigDiagnosisSettings:
     channel_worse_floor: float = 0.02
     place_screen: bool = True
     place_spacing_m: float = 0.15
+    workers: int = 1
+    scheduler: str | None = None
 
     def __post_init__(self):
         for f in fields(self):
             v = getattr(self, f.name)
-            if isinstance(v, bool):
+            if isinstance(v, bool) or f.name == "scheduler":
                 continue
             if not (isinstance(v, (int, float)) and not math.isnan(v) and v >= 0):
                 raise InputError(f"RigDiagnosisSettings.{f.name} = {v!r}: expected a number >= 0")
+        if self.scheduler is not None and not isinstance(self.scheduler, str):
+            raise InputError(
+                f"RigDiagnosisSettings.scheduler = {self.scheduler!r}: expected a Dask scheduler address "
+                "such as tcp://127.0.0.1:8786, or None"
+            )
+        if isinstance(self.workers, bool) or not isinstance(self.workers, int) or self.workers < 1:
+            raise InputError(f"RigDiagnosisSettings.workers = {self.workers!r}: expected an integer >= 1")
         for name in ("min_screen_share", "min_improvement", "p_value", "max_channels_worse"):
             if getattr(self, name) > 1:
                 raise InputError(

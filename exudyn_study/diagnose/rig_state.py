@@ -79,6 +79,9 @@ class RigProblem:
         Catalogue entries to consider (None: all registered).
     damage_cache : dict
         Pseudo damages counted so far (:func:`~exudyn_study.diagnose.rig_prove.channel_damage`).
+    pool : EvaluationPool or None
+        Workers for the fits' finite differences (:mod:`~exudyn_study.diagnose.rig_pool`; None: the
+        diagnosis's own process).
     """
 
     variant: int
@@ -104,6 +107,7 @@ class RigProblem:
     distortion: tuple | None
     wanted: frozenset | None
     damage_cache: dict = field(default_factory=dict, compare=False, repr=False)
+    pool: object = field(default=None, compare=False, repr=False)
 
     @property
     def evaluators(self) -> tuple:
