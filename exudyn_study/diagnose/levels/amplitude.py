@@ -2,8 +2,9 @@
 
 For each level and each mode of the reference model, the mode's pole and residues are
 re-fitted around the mode (``f_r`` +- 3 half-power bandwidths, at least +-5 lines) with the
-other modes held at the reference and a complex offset per channel taking up their
-level-dependent remainder: variable projection (residues and offsets linear, the pole
+other modes held and a complex offset per channel taking up their remainder, in sweeps over
+the modes (each starting from the others' latest values of the level) until no pole moves by more
+than a tenth of its standard deviation: variable projection (residues and offsets linear, the pole
 nonlinear), every line weighted by the inverse of its noise and distortion level. The
 standard deviations come from the Jacobian at the optimum, scaled by the fit's reduced
 chi-square when above 1. The mode's *amplitude* at a level is its rms acceleration at the
@@ -21,7 +22,10 @@ import numpy as np
 from exudyn_study.diagnose.levels.frf import LevelFRF
 from exudyn_study.diagnose.levels.modal import ReferenceModel, fit_mode, mode_term, pole_of
 
-__all__ = ["ModalTable", "fit_modes_per_level", "mode_amplitude"]
+__all__ = ["ModalTable", "fit_modes_per_level", "mode_amplitude", "MAX_SWEEPS"]
+
+#: most sweeps of the per-mode refits at one level (they stop earlier once no pole moves)
+MAX_SWEEPS = 10
 
 
 @dataclass(frozen=True, eq=False)
@@ -128,9 +132,12 @@ def fit_modes_per_level(model: ReferenceModel, frfs: list[LevelFRF], progress=No
         inb = (frf.freq_hz >= model.band_hz[0]) & (frf.freq_hz <= model.band_hz[1])
         sub = frf.select(inb)
         cur = model
-        # two sweeps: each mode refitted with its neighbours at their values of this level (a neighbour
-        # that moves with level into the mode's window is then not mistaken for it)
-        for _sweep in range(2):
+        # sweeps until no pole moves by more than a tenth of its standard deviation (at most
+        # MAX_SWEEPS): each mode refitted with its neighbours at their values of this level, so that a
+        # neighbour that moves with level into the mode's window is not mistaken for it, and the
+        # tails of overlapping modes settle together
+        for _sweep in range(MAX_SWEEPS):
+            prev = np.stack([fr[i], ze[i]]).copy()
             for r in range(nm):
                 fr[i, r], fs_[i, r], ze[i, r], zs[i, r], res[i, :, r], rstd[i, :, r], chi[i, r] = fit_mode(
                     cur, r, sub
@@ -140,6 +147,9 @@ def fit_modes_per_level(model: ReferenceModel, frfs: list[LevelFRF], progress=No
                 resid = cur.residues.copy()
                 resid[:, r] = res[i, :, r]
                 cur = replace(cur, poles=poles, residues=resid)
+            moved = np.abs(np.stack([fr[i], ze[i]]) - prev) / np.maximum(np.stack([fs_[i], zs[i]]), 1e-300)
+            if _sweep > 0 and np.max(moved) < 0.1:
+                break
         for r in range(nm):
             amp[i, r] = mode_amplitude(
                 model.residues[ch[r], r], pole_of((fr[i, r], ze[i, r])), frf.freq_hz, frf.U
