@@ -26,6 +26,7 @@ __all__ = ["ModalTable", "fit_modes_per_level", "mode_amplitude", "MAX_SWEEPS"]
 
 #: most sweeps of the per-mode refits at one level (they stop earlier once no pole moves)
 MAX_SWEEPS = 10
+NEIGHBOURS = 1
 
 
 @dataclass(frozen=True, eq=False)
@@ -132,24 +133,27 @@ def fit_modes_per_level(model: ReferenceModel, frfs: list[LevelFRF], progress=No
         inb = (frf.freq_hz >= model.band_hz[0]) & (frf.freq_hz <= model.band_hz[1])
         sub = frf.select(inb)
         cur = model
-        # sweeps until no pole moves by more than a tenth of its standard deviation (at most
-        # MAX_SWEEPS): each mode refitted with its neighbours at their values of this level, so that a
-        # neighbour that moves with level into the mode's window is not mistaken for it, and the
-        # tails of overlapping modes settle together
-        for _sweep in range(MAX_SWEEPS):
-            prev = np.stack([fr[i], ze[i]]).copy()
-            for r in range(nm):
-                fr[i, r], fs_[i, r], ze[i, r], zs[i, r], res[i, :, r], rstd[i, :, r], chi[i, r] = fit_mode(
-                    cur, r, sub
+        # sweeps over the modes, each refitted with the others at their latest values of this level
+        # (a neighbour that moves with level into the mode's window is then not mistaken for it):
+        # single modes until no pole moves by more than a tenth of its standard deviation, then
+        # every mode together with its NEIGHBOURS on either side until the same holds, so that the
+        # tails of overlapping modes settle together (at most MAX_SWEEPS sweeps each)
+        for group in (0, NEIGHBOURS):
+            for sweep in range(MAX_SWEEPS):
+                prev = np.stack([fr[i], ze[i]]).copy()
+                for r in range(nm):
+                    got = fit_mode(cur, r, sub, neighbours=group)
+                    fr[i, r], fs_[i, r], ze[i, r], zs[i, r], res[i, :, r], rstd[i, :, r], chi[i, r] = got
+                    poles = cur.poles.copy()
+                    poles[r] = pole_of((fr[i, r], ze[i, r]))
+                    resid = cur.residues.copy()
+                    resid[:, r] = res[i, :, r]
+                    cur = replace(cur, poles=poles, residues=resid)
+                moved = np.abs(np.stack([fr[i], ze[i]]) - prev) / np.maximum(
+                    np.stack([fs_[i], zs[i]]), 1e-300
                 )
-                poles = cur.poles.copy()
-                poles[r] = pole_of((fr[i, r], ze[i, r]))
-                resid = cur.residues.copy()
-                resid[:, r] = res[i, :, r]
-                cur = replace(cur, poles=poles, residues=resid)
-            moved = np.abs(np.stack([fr[i], ze[i]]) - prev) / np.maximum(np.stack([fs_[i], zs[i]]), 1e-300)
-            if _sweep > 0 and np.max(moved) < 0.1:
-                break
+                if sweep > 0 and np.max(moved) < 0.1:
+                    break
         for r in range(nm):
             amp[i, r] = mode_amplitude(
                 model.residues[ch[r], r], pole_of((fr[i, r], ze[i, r])), frf.freq_hz, frf.U
