@@ -20,10 +20,10 @@ Why 4 realisations: a multisine FRF of a nonlinear structure carries the stochas
 distortion of its realisations, which only more realisations reduce (as ``1 / sqrt(M)``) and
 which no prediction from the drive can remove. The FRF estimate measures it (the noise +
 distortion floor below). With 3 realisations the floor of the 0.6 N level, where the joint
-starts to slip, is 0.46-0.50 of that level's error before the fit (``holdout_floor_over_before``),
+starts to slip, is 0.45-0.50 of that level's error before the fit (``holdout_floor_over_before``),
 so even an exact linear model of the level could not show its error halved; a lab sizes the
 number of realisations from the distortion a first run shows, so that it sits well below the
-effect to be shown: 4 bring it to about 0.42 and leave room for the model's own error.
+effect to be shown: 4 bring it to 0.41-0.44 and leave room for the model's own error.
 
 Held-out criterion: the error of every held-out level is at least halved, **or** the error after is
 at the noise floor (within 10 % of the noise floor from the period-to-period scatter,
