@@ -4,7 +4,9 @@ For each level and each mode of the reference model, the mode's pole and residue
 re-fitted around the mode (``f_r`` +- 3 half-power bandwidths, at least +-5 lines) with the
 other modes held and a complex offset per channel taking up their remainder, in sweeps over
 the modes (each starting from the others' latest values of the level) until no pole moves by more
-than a tenth of its standard deviation: variable projection (residues and offsets linear, the pole
+than a tenth of its standard deviation, the windows and the poles' bounds always those of the
+reference modes (so that a mode that drowns in noise at some level cannot walk off into its
+neighbour's band over the sweeps): variable projection (residues and offsets linear, the pole
 nonlinear), every line weighted by the inverse of its noise and distortion level. The
 standard deviations come from the Jacobian at the optimum, scaled by the fit's reduced
 chi-square when above 1. The mode's *amplitude* at a level is its rms acceleration at the
@@ -142,7 +144,7 @@ def fit_modes_per_level(model: ReferenceModel, frfs: list[LevelFRF], progress=No
             for sweep in range(MAX_SWEEPS):
                 prev = np.stack([fr[i], ze[i]]).copy()
                 for r in range(nm):
-                    got = fit_mode(cur, r, sub, neighbours=group)
+                    got = fit_mode(cur, r, sub, neighbours=group, anchor=model)
                     fr[i, r], fs_[i, r], ze[i, r], zs[i, r], res[i, :, r], rstd[i, :, r], chi[i, r] = got
                     poles = cur.poles.copy()
                     poles[r] = pole_of((fr[i, r], ze[i, r]))

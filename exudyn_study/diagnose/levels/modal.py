@@ -212,7 +212,13 @@ def pole_of(theta) -> complex:
     return complex(-z * w, w * np.sqrt(max(1 - z * z, 1e-12)))
 
 
-def fit_mode(model: ReferenceModel, r: int, frf: LevelFRF, neighbours: int = 0):
+def fit_mode(
+    model: ReferenceModel,
+    r: int,
+    frf: LevelFRF,
+    neighbours: int = 0,
+    anchor: ReferenceModel | None = None,
+):
     """Refit mode ``r`` on one level; returns (f, f_std, zeta, zeta_std, residues, residue_std, chi2).
 
     The other modes of ``model`` are subtracted at their current poles and residues; the fit
@@ -230,6 +236,10 @@ def fit_mode(model: ReferenceModel, r: int, frf: LevelFRF, neighbours: int = 0):
     neighbours : int, optional
         Also refit this many modes on either side of ``r`` together with it, over one window
         spanning their windows, and return mode ``r``'s values (0: mode ``r`` alone).
+    anchor : ReferenceModel, optional
+        The model whose frequencies and damping place the windows and bound the poles (default
+        ``model``): repeated refits that start from their own results stay in the windows of the
+        ``anchor``'s modes instead of walking off with a mode that drowns in noise.
 
     Returns
     -------
@@ -245,7 +255,7 @@ def fit_mode(model: ReferenceModel, r: int, frf: LevelFRF, neighbours: int = 0):
         Reduced chi-square of the fit (about 1 when the misfit is within the noise).
     """
     group = [k for k in range(r - neighbours, r + neighbours + 1) if 0 <= k < model.poles.size]
-    wins = [mode_window(model, k, frf.freq_hz) for k in group]
+    wins = [mode_window(model if anchor is None else anchor, k, frf.freq_hz) for k in group]
     m = np.logical_or.reduce(wins)
     idx = np.flatnonzero(m)
     m[idx[0] : idx[-1] + 1] = True  # one contiguous window over the group
