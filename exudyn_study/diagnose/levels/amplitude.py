@@ -1,18 +1,19 @@
 """Amplitude-dependent modal parameters: every mode's frequency, damping and amplitude at every level.
 
-For each level and each mode of the reference model, the mode's pole and residues are
-re-fitted around the mode (``f_r`` +- 3 half-power bandwidths, at least +-5 lines) with the
-other modes held and a complex offset per channel taking up their remainder, in sweeps over
-the modes (each starting from the others' latest values of the level) until no pole moves by more
-than a tenth of its standard deviation, the windows and the poles' bounds always those of the
-reference modes (so that a mode that drowns in noise at some level cannot walk off into its
-neighbour's band over the sweeps): variable projection (residues and offsets linear, the pole
-nonlinear), every line weighted by the inverse of its noise and distortion level. The
-standard deviations come from the Jacobian at the optimum, scaled by the fit's reduced
-chi-square when above 1. The mode's *amplitude* at a level is its rms acceleration at the
-channel where the reference mode is largest, ``sqrt(sum_k |R_c / (jw_k - p) + c.c.|^2 |U_k|^2 / 2)``,
-computed from the drive's spectrum, so that it can be predicted for a level from its drive
-alone (the fit stage does that for held-out levels).
+For each level and each mode of the reference model, the mode's pole and residues are re-fitted
+around the mode (``f_r`` +- 3 half-power bandwidths, at least +-5 lines) with the other modes held
+and a complex offset per channel taking up their remainder, in sweeps over the modes (each starting
+from the others' latest values of the level) until no pole moves by more than a tenth of its
+standard deviation, every pole bounded to its reference mode's window (so that a mode that drowns in
+noise at some level cannot walk off into its neighbour's band over the sweeps) and fitted over that
+window and its current one (a mode whose damping grew needs more band): variable projection
+(residues and offsets linear, the pole nonlinear), every line weighted by the inverse of its noise
+and distortion level. The standard deviations come from the Jacobian at the optimum, scaled by the
+fit's reduced chi-square when above 1. The mode's *amplitude* at a level is its rms acceleration at
+the channel where the reference mode is largest,
+``sqrt(sum_k |R_c / (jw_k - p) + c.c.|^2 |U_k|^2 / 2)``, computed from the drive's spectrum, so
+that it can be predicted for a level from its drive alone (the fit stage does that for held-out
+levels).
 """
 
 from __future__ import annotations

@@ -237,9 +237,10 @@ def fit_mode(
         Also refit this many modes on either side of ``r`` together with it, over one window
         spanning their windows, and return mode ``r``'s values (0: mode ``r`` alone).
     anchor : ReferenceModel, optional
-        The model whose frequencies and damping place the windows and bound the poles (default
-        ``model``): repeated refits that start from their own results stay in the windows of the
-        ``anchor``'s modes instead of walking off with a mode that drowns in noise.
+        The model whose modes' windows bound the poles (default ``model``); the fit runs over
+        those windows and ``model``'s together: repeated refits that start from their own
+        results stay in the ``anchor``'s windows instead of walking off with a mode that drowns in
+        noise, and a mode whose damping grew is still fitted over its wider band.
 
     Returns
     -------
@@ -255,7 +256,11 @@ def fit_mode(
         Reduced chi-square of the fit (about 1 when the misfit is within the noise).
     """
     group = [k for k in range(r - neighbours, r + neighbours + 1) if 0 <= k < model.poles.size]
-    wins = [mode_window(model if anchor is None else anchor, k, frf.freq_hz) for k in group]
+    wins = [mode_window(model, k, frf.freq_hz) for k in group]
+    # the bounds: the anchor's windows; the lines: the current windows and those (a mode whose damping
+    # grew with level needs its wider window)
+    bounds = wins if anchor is None else [mode_window(anchor, k, frf.freq_hz) for k in group]
+    wins = [w | b for w, b in zip(wins, bounds, strict=True)]
     m = np.logical_or.reduce(wins)
     idx = np.flatnonzero(m)
     m[idx[0] : idx[-1] + 1] = True  # one contiguous window over the group
@@ -267,7 +272,7 @@ def fit_mode(
     h = frf.H[:, m] - others
     w = 1.0 / np.maximum(frf.total_sigma[:, m], 1e-12 * np.abs(frf.H[:, m]).max())
     theta0, lo, hi = [], [], []
-    for k, wk in zip(group, wins, strict=True):
+    for k, wk in zip(group, bounds, strict=True):
         fk = frf.freq_hz[wk]
         t0 = np.array(
             [np.clip(model.frequency_hz[k], fk[0], fk[-1]), min(max(model.damping_ratio[k], 1e-4), 0.2)]
