@@ -215,12 +215,18 @@ def simulate_twin(
             )
         )
         if return_truth:
-            truths.append(truth_modes(tw, delta[0], law, p, realisations=realisations))
+            truths.append(truth_modes(tw, delta[0], law, p, realisations=realisations, drive=u))
     return (recs, truths) if return_truth else recs
 
 
 def truth_modes(
-    tw: Twin, delta: np.ndarray, law, period: int, substeps: int = SUBSTEPS, realisations: int = 1
+    tw: Twin,
+    delta: np.ndarray,
+    law,
+    period: int,
+    substeps: int = SUBSTEPS,
+    realisations: int = 1,
+    drive: np.ndarray | None = None,
 ) -> tuple[np.ndarray, np.ndarray]:
     """Return the true (frequency in Hz, damping ratio) per mode at one level.
 
@@ -231,8 +237,16 @@ def truth_modes(
     ran it: at its ``substeps`` sub-steps per sample (the motion interpolated to them
     band-limited), its force held over each sub-step (a factor ``(1 - exp(-j w h)) / (j w h)`` per
     line, ``h`` the sub-step); the spectra are averaged over the periods after the first of every
-    realisation, and the realisations pooled (cross- over auto-spectrum). One realisation of a
-    random-phase multisine gives ``k_eq`` at each line plus the slider's stochastic distortion, which is large
+    realisation, and the realisations pooled. The element sits in a feedback loop (its force moves
+    the structure, which moves the joint), so its stochastic distortion is correlated with the
+    joint motion at the same line, most at a resonance; the ratio is therefore taken against the
+    shaker's force as the instrument, ``k_eq = sum F U* / sum delta U*`` over the realisations
+    (the best linear approximation in a closed loop, Pintelon & Schoukens 2012, Section 3.4 and
+    Chapter 12 on the indirect method): with it the structure's BLA from force to response, which
+    the measured FRFs estimate, is exactly the linear structure with ``k_eq`` in the element's place.
+    Without ``drive`` the joint motion is its own instrument (``sum F delta* / sum |delta|^2``).
+    One realisation of a random-phase multisine gives ``k_eq`` at each line plus the slider's
+    stochastic distortion, which is large
     where the joint hardly moves (a mode with a near-node at the joint), so ``k_eq`` at the mode
     is the expected one, which varies smoothly over octaves (the slider is rate independent): a
     straight line in log frequency fitted to the per-line ratios within a factor ``exp(0.3)``
@@ -256,6 +270,8 @@ def truth_modes(
         Sub-steps per sample of the simulation that produced ``delta``.
     realisations : int, optional
         Realisations of the multisine in ``delta``, one after the other, each of whole periods.
+    drive : ndarray, shape (n_samples,), optional
+        The shaker force that produced ``delta`` in N (noise-free), the instrument of the ratio.
 
     Returns
     -------
@@ -279,15 +295,20 @@ def truth_modes(
     block = delta.size // realisations
     n_per = block // period
     cross = np.zeros(f.size, complex)
-    auto = np.zeros(f.size)
+    auto = np.zeros(f.size, complex)
+    power = np.zeros(f.size)
     for b in range(realisations):
         i0 = b * block + period  # the first period of a realisation is its transient
         i1 = b * block + n_per * period
         fd = np.fft.rfft(delta[i0:i1].reshape(-1, period), axis=1).mean(axis=0)
         fr = np.fft.rfft(r[i0 * substeps : i1 * substeps].reshape(-1, period * substeps), axis=1)
         fr = fr.mean(axis=0)[: f.size] / substeps
-        cross += fr * np.conj(fd)
-        auto += np.abs(fd) ** 2
+        inst = fd if drive is None else np.fft.rfft(drive[i0:i1].reshape(-1, period), axis=1).mean(axis=0)
+        cross += fr * np.conj(inst)
+        auto += fd * np.conj(inst)
+        power += np.abs(inst) ** 2
+    # per line: the ratio and its weight |delta|^2 (|sum delta U*|^2 / sum |U|^2 with an instrument U)
+    auto_w = np.abs(auto) ** 2 / np.where(power > 0, power, 1.0)
     wh = 2 * np.pi * f / (tw.sample_rate_hz * substeps)
     cross = cross * np.where(wh > 0, (1 - np.exp(-1j * wh)) / np.where(wh > 0, 1j * wh, 1.0), 1.0)
     m, c, k = _matrices(tw)
@@ -297,7 +318,7 @@ def truth_modes(
     f_lin = np.sqrt(w2) / (2 * np.pi)
     out_f, out_z = np.zeros(f_lin.size), np.zeros(f_lin.size)
     minv = np.linalg.inv(m)
-    moving = auto > 1e-12 * np.max(auto)
+    moving = auto_w > 1e-12 * np.max(auto_w)
     ratio = cross / np.where(moving, auto, 1.0)
     for mode, f0 in enumerate(f_lin):
         fc = f0
@@ -305,7 +326,7 @@ def truth_modes(
             sel = moving & (np.abs(np.log(np.maximum(f, f[1]) / fc)) <= 0.3)
             dk = 0.0
             if sel.any():
-                w = auto[sel]
+                w = auto_w[sel]
                 a = np.stack([np.ones(sel.sum()), np.log(f[sel] / fc)], axis=1) * np.sqrt(w)[:, None]
                 coef, *_ = np.linalg.lstsq(a.astype(complex), ratio[sel] * np.sqrt(w), rcond=None)
                 dk = coef[0]

@@ -49,6 +49,7 @@ from exudyn_study.diagnose.levels.screen import NONLINEAR, ModeTrend, dominant_o
 from exudyn_study.diagnose.levels.settings import LevelSettings
 from exudyn_study.diagnose.schema import Diagnosis
 from exudyn_study.errors import InputError
+from exudyn_study.infra.blas import one_blas_thread
 from exudyn_study.recording.types import Recording
 
 __all__ = [
@@ -105,6 +106,7 @@ def _drive_point(rec: Recording) -> str | None:
     return None
 
 
+@one_blas_thread  # thousands of small local fits: BLAS threads only slow them down on a shared machine
 def diagnose_levels(
     recordings: Sequence[Recording],
     train: Sequence[int],
@@ -185,6 +187,7 @@ def diagnose_levels(
     )
 
 
+@one_blas_thread
 def diagnose_level_frfs(
     frfs: Sequence[LevelFRF],
     train: Sequence[int],

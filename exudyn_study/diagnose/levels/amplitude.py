@@ -1,15 +1,19 @@
 """Amplitude-dependent modal parameters: every mode's frequency, damping and amplitude at every level.
 
-For each level and each mode of the reference model, the mode's pole and residues are
-re-fitted around the mode (``f_r`` +- 3 half-power bandwidths, at least +-5 lines) with the
-other modes held at the reference and a complex offset per channel taking up their
-level-dependent remainder: variable projection (residues and offsets linear, the pole
-nonlinear), every line weighted by the inverse of its noise and distortion level. The
-standard deviations come from the Jacobian at the optimum, scaled by the fit's reduced
-chi-square when above 1. The mode's *amplitude* at a level is its rms acceleration at the
-channel where the reference mode is largest, ``sqrt(sum_k |R_c / (jw_k - p) + c.c.|^2 |U_k|^2 / 2)``,
-computed from the drive's spectrum, so that it can be predicted for a level from its drive
-alone (the fit stage does that for held-out levels).
+For each level and each mode of the reference model, the mode's pole and residues are re-fitted
+around the mode (``f_r`` +- 3 half-power bandwidths, at least +-5 lines) with the other modes held
+and a complex offset per channel taking up their remainder, in sweeps over the modes (each starting
+from the others' latest values of the level) until no pole moves by more than a tenth of its
+standard deviation, every pole bounded to its reference mode's window (so that a mode that drowns in
+noise at some level cannot walk off into its neighbour's band over the sweeps) and fitted over that
+window and its current one (a mode whose damping grew needs more band): variable projection
+(residues and offsets linear, the pole nonlinear), every line weighted by the inverse of its noise
+and distortion level. The standard deviations come from the Jacobian at the optimum, scaled by the
+fit's reduced chi-square when above 1. The mode's *amplitude* at a level is its rms acceleration at
+the channel where the reference mode is largest,
+``sqrt(sum_k |R_c / (jw_k - p) + c.c.|^2 |U_k|^2 / 2)``, computed from the drive's spectrum, so
+that it can be predicted for a level from its drive alone (the fit stage does that for held-out
+levels).
 """
 
 from __future__ import annotations
@@ -21,7 +25,11 @@ import numpy as np
 from exudyn_study.diagnose.levels.frf import LevelFRF
 from exudyn_study.diagnose.levels.modal import ReferenceModel, fit_mode, mode_term, pole_of
 
-__all__ = ["ModalTable", "fit_modes_per_level", "mode_amplitude"]
+__all__ = ["ModalTable", "fit_modes_per_level", "mode_amplitude", "MAX_SWEEPS"]
+
+#: most sweeps of the per-mode refits at one level (they stop earlier once no pole moves)
+MAX_SWEEPS = 10
+NEIGHBOURS = 1
 
 
 @dataclass(frozen=True, eq=False)
@@ -128,18 +136,27 @@ def fit_modes_per_level(model: ReferenceModel, frfs: list[LevelFRF], progress=No
         inb = (frf.freq_hz >= model.band_hz[0]) & (frf.freq_hz <= model.band_hz[1])
         sub = frf.select(inb)
         cur = model
-        # two sweeps: each mode refitted with its neighbours at their values of this level (a neighbour
-        # that moves with level into the mode's window is then not mistaken for it)
-        for _sweep in range(2):
-            for r in range(nm):
-                fr[i, r], fs_[i, r], ze[i, r], zs[i, r], res[i, :, r], rstd[i, :, r], chi[i, r] = fit_mode(
-                    cur, r, sub
+        # sweeps over the modes, each refitted with the others at their latest values of this level
+        # (a neighbour that moves with level into the mode's window is then not mistaken for it):
+        # single modes until no pole moves by more than a tenth of its standard deviation, then
+        # every mode together with its NEIGHBOURS on either side until the same holds, so that the
+        # tails of overlapping modes settle together (at most MAX_SWEEPS sweeps each)
+        for group in (0, NEIGHBOURS):
+            for sweep in range(MAX_SWEEPS):
+                prev = np.stack([fr[i], ze[i]]).copy()
+                for r in range(nm):
+                    got = fit_mode(cur, r, sub, neighbours=group, anchor=model)
+                    fr[i, r], fs_[i, r], ze[i, r], zs[i, r], res[i, :, r], rstd[i, :, r], chi[i, r] = got
+                    poles = cur.poles.copy()
+                    poles[r] = pole_of((fr[i, r], ze[i, r]))
+                    resid = cur.residues.copy()
+                    resid[:, r] = res[i, :, r]
+                    cur = replace(cur, poles=poles, residues=resid)
+                moved = np.abs(np.stack([fr[i], ze[i]]) - prev) / np.maximum(
+                    np.stack([fs_[i], zs[i]]), 1e-300
                 )
-                poles = cur.poles.copy()
-                poles[r] = pole_of((fr[i, r], ze[i, r]))
-                resid = cur.residues.copy()
-                resid[:, r] = res[i, :, r]
-                cur = replace(cur, poles=poles, residues=resid)
+                if sweep > 0 and np.max(moved) < 0.1:
+                    break
         for r in range(nm):
             amp[i, r] = mode_amplitude(
                 model.residues[ch[r], r], pole_of((fr[i, r], ze[i, r])), frf.freq_hz, frf.U

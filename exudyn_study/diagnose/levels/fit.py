@@ -27,9 +27,11 @@ Under a broadband drive the joint's motion is a sum of modes, and a mode sees th
 the whole motion, not through a narrow-band one of its own: the averaged describing function
 holds per mode with its own effective slip amplitude, and a joint of many contact points (an Iwan
 element: sliders of distributed strength) dissipates more or less per unit softening than one
-slider does. So every mode ``r`` of the law has its own ``w0_r``, ``zeta0_r``, softening weight
-``c_r``, dissipation weight ``d_r`` (``Omega_r^2 = ... + c_r Re D + j d_r Im D``) and ``a_slip,r``
-(``p_r`` for a power law, without dissipation), fitted by weighted
+slider does, and its dissipation peaks at another amplitude relative to its softening. So every
+mode ``r`` of the law has its own ``w0_r``, ``zeta0_r``, softening weight ``c_r``, dissipation
+weight ``d_r`` (``Omega_r^2 = ... + c_r Re D + j d_r Im D``), ``a_slip,r`` for the softening
+``k_c`` and one for the dissipation ``k_q`` (within a factor ``e`` of it; ``p_r`` for a power law,
+without dissipation), fitted by weighted
 least squares to the training levels' frequencies and damping (:mod:`.amplitude`) against
 the common ``sigma`` (:func:`level_sigma`). With a force drive and a drive-point accelerometer the shapes are
 mass-normalised and ``k_r = c_r / g_r`` (N/m, ``g_r = (phi_b,r - phi_a,r)^2`` from the reference
@@ -38,14 +40,19 @@ weighted by ``g_r``.
 
 A held-out level is predicted from its drive alone: ``sigma`` is the fixed point of
 ``sigma = rms relative displacement of the model at the poles of sigma``; the FRFs are the
-reference model with those poles. The proof is the relative FRF error per channel and level,
-``||H_meas - H_model|| / ||H_meas||`` over the band, before (reference model) and after, beside the
-floor no linear model can go below: the noise and nonlinear distortion, ``||sigma|| / ||H_meas||``.
+reference model with those poles and with the law modes' residues moved with them: a stiffness
+change across the joint moves every mode's shape in proportion to it (first-order eigenvector
+sensitivity), so ``R_r = R_r,ref + v_r (Omega_r^2 / Omega_r,ref^2 - 1)``, ``v_r`` per channel
+fitted on the training levels (:func:`fit_residue_slope`). The proof is the relative FRF error
+per channel and level, ``||H_meas - H_model|| / ||H_meas||`` over the band, before (reference
+model) and after, beside the floor no linear model can go below: the noise and nonlinear
+distortion, ``||sigma|| / ||H_meas||``.
 
 References
 ----------
 Caughey, T. K. (1960). Random excitation of a system with bilinear hysteresis. J. Appl. Mech. 27, 649-652.
 Iwan, W. D. (1966). A distributed-element model for hysteresis. J. Appl. Mech. 33, 893-900.
+Fox, R. L., Kapoor, M. P. (1968). Rates of change of eigenvalues and eigenvectors. AIAA J. 6, 2426-2429.
 """
 
 from __future__ import annotations
@@ -70,6 +77,9 @@ __all__ = [
     "fit_joint_law",
     "level_sigma",
     "predict_poles",
+    "law_poles_at",
+    "law_model",
+    "fit_residue_slope",
     "prove",
 ]
 
@@ -150,11 +160,16 @@ class JointLaw:
     dissipation : ndarray, shape (n_law_modes,)
         ``d_r`` in (rad/s)^2 per unit ``Im D`` (the dissipation); ``d_r = c_r`` for one Jenkins element.
     shape : dict
-        'jenkins': ``{'a_slip': ndarray (m) per mode}``; 'power': ``{'p': ndarray per mode, 'sigma_ref': m}``.
+        'jenkins': ``{'a_slip': ndarray (m) per mode, 'a_slip_q': ndarray (m) per mode}`` (the
+        softening's and the dissipation's slip amplitudes; without 'a_slip_q' both are 'a_slip');
+        'power': ``{'p': ndarray per mode, 'sigma_ref': m}``.
     stiffness_n_per_m : float or None
         The joint's slipping (or hardening) stiffness ``k`` when the shapes are mass-normalised.
     parameters : dict
         name -> {'value', 'unit', 'std'} for the JSON.
+    residue_slope : ndarray of complex, shape (n_out, n_law_modes), or None
+        Change of each law mode's residues per unit relative change of its ``Omega_r^2``
+        (:func:`fit_residue_slope`); None: the residues stay the reference model's.
     """
 
     kind: str
@@ -167,6 +182,7 @@ class JointLaw:
     shape: dict
     stiffness_n_per_m: float | None
     parameters: dict
+    residue_slope: np.ndarray | None = None
 
     def d(self, sigma: float) -> np.ndarray:
         """Equivalent stiffness change per unit coupling of each mode at relative displacement ``sigma``.
@@ -183,8 +199,11 @@ class JointLaw:
             ``sigma / a_slip`` for 'jenkins', ``(sigma / sigma_ref)^p`` (real) for 'power'.
         """
         if self.kind == "jenkins":
-            out = np.array([jenkins_random(sigma / a) for a in np.atleast_1d(self.shape["a_slip"])])
-            return (out[:, 0] - 1.0) + 1j * out[:, 1]
+            a_c = np.atleast_1d(self.shape["a_slip"])
+            a_q = np.atleast_1d(self.shape.get("a_slip_q", a_c))
+            kc = np.array([jenkins_random(sigma / a)[0] for a in a_c])
+            kq = np.array([jenkins_random(sigma / a)[1] for a in a_q])
+            return (kc - 1.0) + 1j * kq
         return (sigma / self.shape["sigma_ref"]) ** np.atleast_1d(self.shape["p"]) + 0j
 
     def modal(self, sigma: float) -> tuple[np.ndarray, np.ndarray]:
@@ -334,7 +353,10 @@ def _fit_mode(kind, f, fs, z, zs, sig, s_ref):
 
     def law(x):
         shape = (
-            {"a_slip": np.array([s_ref * math.exp(x[3])])}
+            {
+                "a_slip": np.array([s_ref * math.exp(x[3])]),
+                "a_slip_q": np.array([s_ref * math.exp(x[3] + x[5])]),
+            }
             if kind == "jenkins"
             else {"p": np.array([x[3]]), "sigma_ref": s_ref}
         )
@@ -358,10 +380,10 @@ def _fit_mode(kind, f, fs, z, zs, sig, s_ref):
         return np.nan_to_num(out, nan=1e8, posinf=1e8, neginf=-1e8)
 
     if kind == "jenkins":
-        lb, ub = [0.9 * f[i0], 1e-6, 0.0, -span - 3.0, 0.0], [1.1 * f[i0], 0.5, 1.0, 3.0, 1.0]
+        lb, ub = [0.9 * f[i0], 1e-6, 0.0, -span - 3.0, 0.0, -1.0], [1.1 * f[i0], 0.5, 1.0, 3.0, 1.0, 1.0]
         shapes = np.linspace(-span, 0.5, 8)
     else:
-        lb, ub = [0.9 * f[i0], 1e-6, -1.0, 0.5, 0.0], [1.1 * f[i0], 0.5, 1.0, 8.0, 1e-9]
+        lb, ub = [0.9 * f[i0], 1e-6, -1.0, 0.5, 0.0, -1e-9], [1.1 * f[i0], 0.5, 1.0, 8.0, 1e-9, 1e-9]
         shapes = (1.0, 2.0, 4.0)
     drop = abs(1.0 - (f[int(np.argmax(sig))] / f[i0]) ** 2)
     grid = [
@@ -372,6 +394,7 @@ def _fit_mode(kind, f, fs, z, zs, sig, s_ref):
                 cs * max(drop, 1e-5),
                 sh,
                 (cs * max(drop, 1e-5) if kind == "jenkins" else 0.0),
+                0.0,
             ]
         )
         for sh in shapes
@@ -400,6 +423,7 @@ def _fit_mode(kind, f, fs, z, zs, sig, s_ref):
         shape_s,
         2 * best.cost / dof,
         best.x[4] * w_lo2,
+        best.x[5],
     )
 
 
@@ -446,7 +470,11 @@ def fit_joint_law(
         zs = np.maximum(table.damping_std[train, r], 1e-6)
         rows.append(_fit_mode(kind, f, fs, z, zs, sig, s_ref))
     rows = np.array(rows)
-    shape = {"a_slip": rows[:, 4]} if kind == "jenkins" else {"p": rows[:, 4], "sigma_ref": s_ref}
+    shape = (
+        {"a_slip": rows[:, 4], "a_slip_q": rows[:, 4] * np.exp(rows[:, 8])}
+        if kind == "jenkins"
+        else {"p": rows[:, 4], "sigma_ref": s_ref}
+    )
     params: dict = {}
     scaled = g is not None and np.all(np.isfinite(np.asarray(g)[list(modes)]))
     wts = np.asarray(g)[list(modes)] if scaled else np.abs(rows[:, 2])
@@ -468,9 +496,116 @@ def fit_joint_law(
                 "unit": "N",
                 "std": k * a_s * math.hypot(a_sd / max(a_s, 1e-300), k_sd / max(k, 1e-300)),
             }
-    return JointLaw(
-        kind, tuple(pair), modes, rows[:, 0], rows[:, 1], rows[:, 2], rows[:, 7], shape, k, params
-    )
+    law = JointLaw(kind, tuple(pair), modes, rows[:, 0], rows[:, 1], rows[:, 2], rows[:, 7], shape, k, params)
+    return replace(law, residue_slope=fit_residue_slope(model, law, [frfs[i] for i in train], sig))
+
+
+def _omega2(poles: np.ndarray) -> np.ndarray:
+    """``w^2 (1 + 2 j zeta)`` of poles in rad/s."""
+    w = np.abs(poles)
+    return w**2 * (1.0 - 2j * poles.real / w)
+
+
+def law_poles_at(model: ReferenceModel, law: JointLaw, sigma: float) -> np.ndarray:
+    """Return the model's poles with those of the law's modes at relative displacement ``sigma``.
+
+    Parameters
+    ----------
+    model : ReferenceModel
+        The reference model; its modes outside the law keep their poles.
+    law : JointLaw
+        The joint law.
+    sigma : float
+        Rms relative displacement of the law's pair in m.
+
+    Returns
+    -------
+    ndarray of complex, shape (n_modes,)
+        Poles in rad/s.
+    """
+    poles = model.poles.copy()
+    poles[list(law.modes)] = law.poles(sigma)
+    return poles
+
+
+def law_model(model: ReferenceModel, law: JointLaw, poles: np.ndarray) -> ReferenceModel:
+    """Return the reference model at a level: ``poles``, and the law modes' residues moved with them.
+
+    A mode's residues change with its shape, and a stiffness change across the joint moves a
+    mode's shape in proportion to it (first-order eigenvector sensitivity, Fox & Kapoor 1968):
+    ``R_r = R_r,ref + v_r (Omega_r^2 / Omega_r,ref^2 - 1)`` with ``v_r`` the law's
+    ``residue_slope`` (:func:`fit_residue_slope`).
+
+    Parameters
+    ----------
+    model : ReferenceModel
+        The reference model (its residues at the reference poles).
+    law : JointLaw
+        The joint law (its modes and ``residue_slope``; None leaves the residues).
+    poles : ndarray of complex, shape (n_modes,)
+        The level's poles in rad/s (e.g. :func:`predict_poles`).
+
+    Returns
+    -------
+    ReferenceModel
+        With ``poles`` and the moved residues; everything else as ``model``.
+    """
+    res = model.residues.copy()
+    if law.residue_slope is not None:
+        idx = list(law.modes)
+        rel = _omega2(np.asarray(poles)[idx]) / _omega2(model.poles[idx]) - 1.0
+        res[:, idx] = res[:, idx] + law.residue_slope * rel[None, :]
+    return replace(model, poles=np.asarray(poles, complex), residues=res)
+
+
+def fit_residue_slope(
+    model: ReferenceModel, law: JointLaw, frfs: list[LevelFRF], sigmas: np.ndarray
+) -> np.ndarray:
+    """Residue change per unit relative change of ``Omega_r^2`` of every law mode (see :func:`law_model`).
+
+    At every training level the residues (and residual terms) are fitted by weighted LSFD to
+    the level's FRFs with the poles fixed where the law puts them at that level's ``sigma``
+    (the poles the prediction will use, so that the residues fit them); ``v_r`` per channel is
+    the least-squares slope through the origin of the residue change against the relative
+    change of ``Omega_r^2``, pooled over the levels (a level that barely moves adds little).
+
+    Parameters
+    ----------
+    model : ReferenceModel
+        The reference model.
+    law : JointLaw
+        The fitted law (its modes and poles).
+    frfs : list of LevelFRF
+        The training levels.
+    sigmas : ndarray, shape (len(frfs),)
+        Their rms relative displacements in m (:func:`level_sigma`).
+
+    Returns
+    -------
+    ndarray of complex, shape (n_out, n_law_modes)
+        ``v_r`` per channel and law mode, in residue units (FRF unit times rad/s).
+    """
+    from exudyn_study.identify.lsfd import lsfd
+
+    idx = list(law.modes)
+    num = np.zeros((model.residues.shape[0], len(idx)), complex)
+    den = np.zeros(len(idx))
+    for frf, sigma in zip(frfs, sigmas, strict=True):
+        sub = frf.select((frf.freq_hz >= model.band_hz[0]) & (frf.freq_hz <= model.band_hz[1]))
+        poles = law_poles_at(model, law, float(sigma))
+        w = 1.0 / np.maximum(sub.total_sigma, 1e-12 * np.abs(sub.H).max())
+        fit = lsfd(
+            sub.H[:, None, :],
+            sub.freq_hz,
+            poles,
+            band_hz=model.band_hz,
+            frf_form="accelerance",
+            weights=w[:, None, :],
+        )
+        rel = _omega2(poles[idx]) / _omega2(model.poles[idx]) - 1.0
+        num += (fit.residues[:, 0, idx] - model.residues[:, idx]) * np.conj(rel)[None, :]
+        den += np.abs(rel) ** 2
+    return num / np.maximum(den, 1e-300)[None, :]
 
 
 def _weighted_median(v: np.ndarray, s: np.ndarray, w: np.ndarray) -> tuple[float, float]:
@@ -510,17 +645,13 @@ def predict_poles(model: ReferenceModel, law: JointLaw, frf: LevelFRF) -> tuple[
     i, j = ch.index(law.pair[0]), ch.index(law.pair[1])
     m = (frf.freq_hz >= model.band_hz[0]) & (frf.freq_hz <= model.band_hz[1])
     f, u = frf.freq_hz[m], frf.U[m]
-    poles = model.poles.copy()
-    idx = list(law.modes)
     sigma = relative_displacement(synthesise(model, f), f, u, i, j)
     for _ in range(60):
-        poles[idx] = law.poles(sigma)
-        new = relative_displacement(synthesise(model, f, poles), f, u, i, j)
+        new = relative_displacement(synthesise(model, f, law_poles_at(model, law, sigma)), f, u, i, j)
         if abs(new - sigma) <= 1e-6 * sigma:
             break
         sigma = 0.5 * (sigma + new)
-    poles[idx] = law.poles(sigma)
-    return poles, sigma
+    return law_poles_at(model, law, sigma), sigma
 
 
 def prove(
@@ -574,7 +705,7 @@ def prove(
             h_own = synthesise(replace(model, residues=table.residues[n]), f, p_own)
             own = float(np.mean(np.linalg.norm(h - h_own, axis=1) / np.linalg.norm(h, axis=1)))
         poles, sigma = predict_poles(model, law, frf)
-        h1 = synthesise(model, f, poles)
+        h1 = synthesise(law_model(model, law, poles), f)
         nh = np.linalg.norm(h, axis=1)
         e0 = np.linalg.norm(h - h0, axis=1) / nh
         e1 = np.linalg.norm(h - h1, axis=1) / nh

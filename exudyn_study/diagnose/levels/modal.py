@@ -2,8 +2,11 @@
 
 ``H(w) = sum_r R_r / (jw - p_r) + conj(R_r) / (jw - conj(p_r)) + lower + upper (jw)^2`` per channel
 (accelerance form, one input). :func:`fit_mode` refits one mode's pole and residues around the mode
-with the others held: variable projection (residues and a complex offset per channel linear, the
-pole nonlinear and bounded to the mode's window), every line weighted by the inverse of its noise
+with the others held, optionally together with its neighbours over one window spanning theirs (two
+modes whose half-power bands overlap share their tails, and a weak mode between two strong ones
+is otherwise biased by whatever of their tails the held values miss): variable projection
+(residues and a complex offset per channel linear, the poles nonlinear and each bounded to its
+mode's window), every line weighted by the inverse of its noise
 and distortion level; standard deviations from the Jacobian, scaled by the reduced chi-square
 when above 1.
 """
@@ -154,27 +157,41 @@ def mode_window(model: ReferenceModel, r: int, freq_hz: np.ndarray) -> np.ndarra
     return m
 
 
-def _basis(pole: complex, jw: np.ndarray) -> np.ndarray:
-    """Real-parameter basis (Re R, Im R, Re a, Im a) as complex columns, shape (n_freq, 4)."""
-    a = 1.0 / (jw - pole)
-    b = 1.0 / (jw - np.conj(pole))
-    return np.stack([a + b, 1j * a - 1j * b, np.ones_like(jw), 1j * np.ones_like(jw)], axis=1)
+def _basis(poles, jw: np.ndarray) -> np.ndarray:
+    """Real-parameter basis (Re R_k, Im R_k per pole, Re a, Im a) as complex columns, (n_freq, 2 n + 2)."""
+    cols = []
+    for pole in np.atleast_1d(poles):
+        a = 1.0 / (jw - pole)
+        b = 1.0 / (jw - np.conj(pole))
+        cols += [a + b, 1j * a - 1j * b]
+    cols += [np.ones_like(jw), 1j * np.ones_like(jw)]
+    return np.stack(cols, axis=1)
 
 
-def _solve(pole, jw, h, w):
-    """Weighted LS of the residue and offset for every channel; returns (coef (n_out, 4), wres, cov list)."""
-    bas = _basis(pole, jw)
-    res, coefs, covs = [], [], []
-    for c in range(h.shape[0]):
-        a = bas * w[c][:, None]
-        a_r = np.concatenate([a.real, a.imag])
-        b = h[c] * w[c]
-        b_r = np.concatenate([b.real, b.imag])
-        x, *_ = np.linalg.lstsq(a_r, b_r, rcond=None)
-        coefs.append(x)
-        res.append(b_r - a_r @ x)
-        covs.append(np.linalg.pinv(a_r.T @ a_r))
-    return np.array(coefs), np.concatenate(res), covs
+def _solve(poles, jw, h, w, with_cov: bool = True):
+    """Weighted LS of residues and offset per channel; returns (coef (n_out, 2 n + 2), wres, covs or None).
+
+    The real parameters of every channel solve the normal equations ``Re(A^H W^2 A) x = Re(A^H W^2 h)``
+    of the complex basis ``A`` (equal to those of the stacked real and imaginary parts), all channels
+    at once, the columns scaled to unit norm first.
+    """
+    bas = _basis(poles, jw)
+    w2 = w**2
+    bw = bas.conj().T[None, :, :] * w2[:, None, :]  # (n_out, p, n_freq)
+    g = (bw @ bas).real
+    rhs = (bw @ h[:, :, None])[..., 0].real
+    d = np.sqrt(np.maximum(np.diagonal(g, axis1=1, axis2=2), 1e-300))
+    gs = g / (d[:, :, None] * d[:, None, :])
+    try:
+        coef = np.linalg.solve(gs, (rhs / d)[..., None])[..., 0] / d
+    except np.linalg.LinAlgError:
+        coef = np.array([np.linalg.lstsq(gs[c], rhs[c] / d[c], rcond=None)[0] for c in range(g.shape[0])]) / d
+    r = w * (h - coef @ bas.T)
+    res = np.concatenate([r.real, r.imag], axis=1).ravel()
+    covs = None
+    if with_cov:
+        covs = [np.linalg.pinv(gs[c]) / np.outer(d[c], d[c]) for c in range(g.shape[0])]
+    return coef, res, covs
 
 
 def pole_of(theta) -> complex:
@@ -195,7 +212,13 @@ def pole_of(theta) -> complex:
     return complex(-z * w, w * np.sqrt(max(1 - z * z, 1e-12)))
 
 
-def fit_mode(model: ReferenceModel, r: int, frf: LevelFRF):
+def fit_mode(
+    model: ReferenceModel,
+    r: int,
+    frf: LevelFRF,
+    neighbours: int = 0,
+    anchor: ReferenceModel | None = None,
+):
     """Refit mode ``r`` on one level; returns (f, f_std, zeta, zeta_std, residues, residue_std, chi2).
 
     The other modes of ``model`` are subtracted at their current poles and residues; the fit
@@ -210,6 +233,14 @@ def fit_mode(model: ReferenceModel, r: int, frf: LevelFRF):
     frf : LevelFRF
         The level's FRFs (in the model's channels and unit), with their noise and distortion
         levels as the weights.
+    neighbours : int, optional
+        Also refit this many modes on either side of ``r`` together with it, over one window
+        spanning their windows, and return mode ``r``'s values (0: mode ``r`` alone).
+    anchor : ReferenceModel, optional
+        The model whose modes' windows bound the poles (default ``model``); the fit runs over
+        those windows and ``model``'s together: repeated refits that start from their own
+        results stay in the ``anchor``'s windows instead of walking off with a mode that drowns in
+        noise, and a mode whose damping grew is still fitted over its wider band.
 
     Returns
     -------
@@ -224,36 +255,59 @@ def fit_mode(model: ReferenceModel, r: int, frf: LevelFRF):
     chi2 : float
         Reduced chi-square of the fit (about 1 when the misfit is within the noise).
     """
-    m = mode_window(model, r, frf.freq_hz)
+    group = [k for k in range(r - neighbours, r + neighbours + 1) if 0 <= k < model.poles.size]
+    wins = [mode_window(model, k, frf.freq_hz) for k in group]
+    # the bounds: the anchor's windows; the lines: the current windows and those (a mode whose damping
+    # grew with level needs its wider window)
+    bounds = wins if anchor is None else [mode_window(anchor, k, frf.freq_hz) for k in group]
+    wins = [w | b for w, b in zip(wins, bounds, strict=True)]
+    m = np.logical_or.reduce(wins)
+    idx = np.flatnonzero(m)
+    m[idx[0] : idx[-1] + 1] = True  # one contiguous window over the group
     f = frf.freq_hz[m]
     jw = 2j * np.pi * f
-    others = synthesise(model, f) - mode_term(model.residues[:, r], model.poles[r], f)
+    others = synthesise(model, f)
+    for k in group:
+        others = others - mode_term(model.residues[:, k], model.poles[k], f)
     h = frf.H[:, m] - others
     w = 1.0 / np.maximum(frf.total_sigma[:, m], 1e-12 * np.abs(frf.H[:, m]).max())
-    theta0 = np.array(
-        [np.clip(model.frequency_hz[r], f[0], f[-1]), min(max(model.damping_ratio[r], 1e-4), 0.2)]
-    )
-    scale = np.array([theta0[0] * 1e-3, theta0[1] * 0.1])
-    # the pole stays inside the mode's window and its damping in (0, 30 %]: a mode that left the
-    # window (or drowned in noise) ends at a bound and is flagged by its large uncertainty
-    lo = np.array([(f[0] - theta0[0]) / scale[0], (1e-5 - theta0[1]) / scale[1]])
-    hi = np.array([(f[-1] - theta0[0]) / scale[0], (0.3 - theta0[1]) / scale[1]])
+    theta0, lo, hi = [], [], []
+    for k, wk in zip(group, bounds, strict=True):
+        fk = frf.freq_hz[wk]
+        t0 = np.array(
+            [np.clip(model.frequency_hz[k], fk[0], fk[-1]), min(max(model.damping_ratio[k], 1e-4), 0.2)]
+        )
+        theta0.append(t0)
+        # each pole stays inside its mode's window and its damping in (0, 30 %]: a mode that left
+        # the window (or drowned in noise) ends at a bound and is flagged by its large uncertainty
+        lo.append([fk[0], 1e-5])
+        hi.append([fk[-1], 0.3])
+    theta0 = np.concatenate(theta0)
+    scale = np.tile([1e-3, 0.1], len(group)) * theta0
+    lo = (np.concatenate(lo) - theta0) / scale
+    hi = (np.concatenate(hi) - theta0) / scale
+
+    def poles_of(x):
+        t = theta0 + x * scale
+        return np.array([pole_of(t[2 * i : 2 * i + 2]) for i in range(len(group))])
 
     def fun(x):
-        return _solve(pole_of(theta0 + x * scale), jw, h, w)[1]
+        return _solve(poles_of(x), jw, h, w, with_cov=False)[1]
 
-    sol = scipy.optimize.least_squares(fun, np.zeros(2), bounds=(lo, hi), method="trf")
-    theta = theta0 + sol.x * scale
-    coef, resid, covs = _solve(pole_of(theta), jw, h, w)
-    dof = max(resid.size - 2 - 4 * h.shape[0], 1)
+    sol = scipy.optimize.least_squares(fun, np.zeros(theta0.size), bounds=(lo, hi), method="trf")
+    theta_all = theta0 + sol.x * scale
+    coef, resid, covs = _solve(poles_of(sol.x), jw, h, w)
+    dof = max(resid.size - theta0.size - (2 * len(group) + 2) * h.shape[0], 1)
     chi2 = float(resid @ resid / dof)
     s2 = max(chi2, 1.0)
     jac = sol.jac / scale
+    i = group.index(r)
     try:
         cov = np.linalg.inv(jac.T @ jac) * s2
-        std = np.sqrt(np.maximum(np.diag(cov), 0.0))
+        std = np.sqrt(np.maximum(np.diag(cov), 0.0))[2 * i : 2 * i + 2]
     except np.linalg.LinAlgError:
         std = np.array([np.inf, np.inf])
-    residues = coef[:, 0] + 1j * coef[:, 1]
-    rstd = np.array([np.sqrt(max(cv[0, 0] + cv[1, 1], 0.0) * s2) for cv in covs])
+    theta = theta_all[2 * i : 2 * i + 2]
+    residues = coef[:, 2 * i] + 1j * coef[:, 2 * i + 1]
+    rstd = np.array([np.sqrt(max(cv[2 * i, 2 * i] + cv[2 * i + 1, 2 * i + 1], 0.0) * s2) for cv in covs])
     return theta[0], std[0], theta[1], std[1], residues, rstd, chi2
