@@ -561,7 +561,8 @@ def diagnose_rig(
         "local_workers": None
         if dask
         else round(
-            cpu1.children_user + cpu1.children_system - cpu0.children_user - cpu0.children_system, 1
+            max(0.0, cpu1.children_user + cpu1.children_system - cpu0.children_user - cpu0.children_system),
+            1,
         ),
     }
     return replace(diagnosis, metadata={**diagnosis.metadata, "cpu_s": cpu_s})
