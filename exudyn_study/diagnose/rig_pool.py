@@ -32,16 +32,13 @@ import logging
 import os
 import pickle
 import shutil
-import signal
-import sys
 import tempfile
-import threading
-import time
 from pathlib import Path
 
 import numpy as np
 
 from exudyn_study.errors import InputError
+from exudyn_study.infra.workers import die_with_parent
 
 __all__ = ["EvaluationPool", "evaluation_pool"]
 
@@ -224,7 +221,7 @@ class EvaluationPool:
                 self._executor = ProcessPoolExecutor(
                     max_workers=self.workers,
                     mp_context=get_context("spawn"),
-                    initializer=_worker_start,
+                    initializer=die_with_parent,
                     initargs=(os.getpid(),),
                 )
                 # the workers start now, with the environment above
@@ -327,24 +324,3 @@ def _ready(_) -> int:
     return os.getpid()
 
 
-def _worker_start(parent_pid: int) -> None:
-    """Pool-worker initializer: end this worker when the diagnosis's process is gone.
-
-    On Linux the kernel sends SIGKILL at the parent's death (``PR_SET_PDEATHSIG``); everywhere a
-    daemon thread also checks once a second that the parent is still the same process.
-    """
-    if sys.platform.startswith("linux"):
-        import ctypes
-
-        with contextlib.suppress(OSError, AttributeError):
-            ctypes.CDLL("libc.so.6", use_errno=True).prctl(1, signal.SIGKILL)  # 1: PR_SET_PDEATHSIG
-    if os.getppid() != parent_pid:
-        os._exit(1)
-
-    def watch() -> None:
-        while True:
-            time.sleep(1.0)
-            if os.getppid() != parent_pid:
-                os._exit(1)
-
-    threading.Thread(target=watch, name="exudyn-study-parent-watch", daemon=True).start()

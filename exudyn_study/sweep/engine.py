@@ -38,7 +38,6 @@ import json
 import logging
 import math
 import os
-import signal
 import socket
 import sys
 import tempfile
@@ -53,6 +52,7 @@ from pathlib import Path
 from typing import Any
 
 from exudyn_study.errors import InputError
+from exudyn_study.infra.workers import die_with_parent
 from exudyn_study.sweep.config import Point, SweepConfig, check_scheduler, expand_points
 from exudyn_study.sweep.tasks import Task, TaskRegistry, get_task
 
@@ -300,33 +300,6 @@ def _single_threaded_workers():
                 os.environ[v] = old
 
 
-def _die_with_parent(parent_pid: int) -> None:
-    """Pool-worker initializer: end this worker when the process that started it is gone.
-
-    A killed sweep (SIGKILL, out of memory) cannot shut its pool down; without this its
-    workers would finish their queue and the resource tracker would wait for them. On Linux
-    the kernel sends SIGKILL at the parent's death (``PR_SET_PDEATHSIG``); everywhere a
-    daemon thread also checks once a second that the parent is still the same process.
-    """
-    import threading
-
-    if sys.platform.startswith("linux"):
-        import ctypes
-
-        with contextlib.suppress(OSError, AttributeError):
-            ctypes.CDLL("libc.so.6", use_errno=True).prctl(1, signal.SIGKILL)  # 1: PR_SET_PDEATHSIG
-    if os.getppid() != parent_pid:  # the parent died before the call above
-        os._exit(1)
-
-    def watch() -> None:
-        while True:
-            time.sleep(1.0)
-            if os.getppid() != parent_pid:
-                os._exit(1)
-
-    threading.Thread(target=watch, name="exudyn-study-parent-watch", daemon=True).start()
-
-
 def _failed_row(p: Point, message: str) -> dict:
     from exudyn_study import __version__
 
@@ -342,7 +315,7 @@ def _run_local(task: Task, points: list[Point], artefacts: list[tuple], workers:
     phase_artefacts = list(artefacts)
     with _single_threaded_workers():
         while pending or phase_artefacts:
-            executor = ProcessPoolExecutor(max_workers=workers, mp_context=ctx, initializer=_die_with_parent,
+            executor = ProcessPoolExecutor(max_workers=workers, mp_context=ctx, initializer=die_with_parent,
                                            initargs=(os.getpid(),))
             try:
                 if phase_artefacts:
