@@ -38,14 +38,11 @@ from pathlib import Path
 import numpy as np
 
 from exudyn_study.errors import InputError
-from exudyn_study.infra.workers import die_with_parent
+from exudyn_study.infra.workers import die_with_parent, single_threaded_workers
 
 __all__ = ["EvaluationPool", "evaluation_pool"]
 
 log = logging.getLogger(__name__)
-
-#: thread variables set to 1 in the spawned workers (unless already set), as the sweep's workers
-THREAD_VARS = ("OMP_NUM_THREADS", "OPENBLAS_NUM_THREADS", "MKL_NUM_THREADS", "NUMEXPR_NUM_THREADS")
 
 #: evaluators the pool keeps sent (the diagnosis's training, spectral and shorter-record ones, ...)
 EVALUATORS_KEPT = 4
@@ -214,10 +211,7 @@ class EvaluationPool:
             from concurrent.futures import ProcessPoolExecutor
             from multiprocessing import get_context
 
-            saved = {v: os.environ.get(v) for v in THREAD_VARS}
-            for v in THREAD_VARS:
-                os.environ.setdefault(v, "1")
-            try:
+            with single_threaded_workers():
                 self._executor = ProcessPoolExecutor(
                     max_workers=self.workers,
                     mp_context=get_context("spawn"),
@@ -226,12 +220,6 @@ class EvaluationPool:
                 )
                 # the workers start now, with the environment above
                 list(self._executor.map(_ready, range(self.workers)))
-            finally:
-                for v, old in saved.items():
-                    if old is None:
-                        os.environ.pop(v, None)
-                    else:
-                        os.environ[v] = old
         return self._executor
 
     def close(self) -> None:

@@ -8,8 +8,32 @@ import signal
 import sys
 import threading
 import time
+from collections.abc import Iterator
 
-__all__ = ["die_with_parent"]
+__all__ = ["THREAD_VARS", "die_with_parent", "single_threaded_workers"]
+
+#: environment variables that set the thread count of the BLAS and OpenMP libraries
+THREAD_VARS = ("OMP_NUM_THREADS", "OPENBLAS_NUM_THREADS", "MKL_NUM_THREADS", "NUMEXPR_NUM_THREADS")
+
+
+@contextlib.contextmanager
+def single_threaded_workers() -> Iterator[None]:
+    """Set :data:`THREAD_VARS` to 1 (where unset) while worker processes are started; restore them.
+
+    Workers spawned inside inherit one BLAS thread each, so a pool of one worker per core does not
+    oversubscribe the cores; the calling process keeps its own setting.
+    """
+    saved = {v: os.environ.get(v) for v in THREAD_VARS}
+    for v in THREAD_VARS:
+        os.environ.setdefault(v, "1")
+    try:
+        yield
+    finally:
+        for v, old in saved.items():
+            if old is None:
+                os.environ.pop(v, None)
+            else:
+                os.environ[v] = old
 
 
 def die_with_parent(parent_pid: int) -> None:

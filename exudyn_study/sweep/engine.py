@@ -52,7 +52,7 @@ from pathlib import Path
 from typing import Any
 
 from exudyn_study.errors import InputError
-from exudyn_study.infra.workers import die_with_parent
+from exudyn_study.infra.workers import die_with_parent, single_threaded_workers
 from exudyn_study.sweep.config import Point, SweepConfig, check_scheduler, expand_points
 from exudyn_study.sweep.tasks import Task, TaskRegistry, get_task
 
@@ -63,7 +63,6 @@ log = logging.getLogger(__name__)
 #: Columns every row starts with (then the task parameters, then these, then the outputs)
 BASE_COLUMNS = ("point_id", "index")
 STATUS_COLUMNS = ("seed", "version", "status", "error", "wall_s", "worker")
-_THREAD_VARS = ("OMP_NUM_THREADS", "OPENBLAS_NUM_THREADS", "MKL_NUM_THREADS", "NUMEXPR_NUM_THREADS")
 
 
 @dataclass(frozen=True)
@@ -285,21 +284,6 @@ def _column(values: list) -> list:
 # ---------------------------------------------------------------------------------------
 
 
-@contextlib.contextmanager
-def _single_threaded_workers():
-    saved = {v: os.environ.get(v) for v in _THREAD_VARS}
-    for v in _THREAD_VARS:
-        os.environ.setdefault(v, "1")
-    try:
-        yield
-    finally:
-        for v, old in saved.items():
-            if old is None:
-                os.environ.pop(v, None)
-            else:
-                os.environ[v] = old
-
-
 def _failed_row(p: Point, message: str) -> dict:
     from exudyn_study import __version__
 
@@ -313,7 +297,7 @@ def _run_local(task: Task, points: list[Point], artefacts: list[tuple], workers:
     attempts: dict[str, int] = {}
     ctx = get_context("spawn")
     phase_artefacts = list(artefacts)
-    with _single_threaded_workers():
+    with single_threaded_workers():
         while pending or phase_artefacts:
             executor = ProcessPoolExecutor(max_workers=workers, mp_context=ctx, initializer=die_with_parent,
                                            initargs=(os.getpid(),))
