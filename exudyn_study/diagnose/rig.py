@@ -319,8 +319,31 @@ def _generic_if_better(problem: RigProblem, state: ModelState, screening, fits, 
     return replace(fits, fitted=fits.fitted + generic.fitted, ok=tuple(better))
 
 
-#: the generic element replaces catalogue fits at a bound if it removes this much more of the residual
+#: the generic element replaces catalogue fits if it removes this much more of the residual
 GENERIC_MARGIN = 0.05
+
+
+def _catalogue_first(problem: RigProblem, fits):
+    """Drop the generic local element's fits when a catalogue fit explains nearly as much.
+
+    The generic element (a spring-damper to ground at a point) has the freedom to stand in for part of
+    almost any local mismatch; a catalogue entry names physics. The generic element is kept only where it
+    removes at least :data:`GENERIC_MARGIN` more of the residual than every acceptable catalogue fit.
+    """
+    generic = [f for f in fits.ok if f["h"].physics == "local_element"]
+    catalogue = [f for f in fits.ok if f["h"].physics != "local_element"]
+    if not generic or not catalogue:
+        return fits
+    best_catalogue = max(catalogue, key=lambda f: f["improvement"])
+    kept = [f for f in generic if f["improvement"] >= best_catalogue["improvement"] + GENERIC_MARGIN]
+    if len(kept) < len(generic):
+        problem.say(
+            f"{best_catalogue['h'].label} explains {100 * best_catalogue['improvement']:.0f} %, within "
+            f"{100 * GENERIC_MARGIN:.0f} % of the generic local element: the catalogue entry is preferred"
+        )
+    kept_ids = {id(f) for f in kept}
+    ok = tuple(f for f in fits.ok if f["h"].physics != "local_element" or id(f) in kept_ids)
+    return replace(fits, ok=ok)
 
 
 def _round(
@@ -371,6 +394,7 @@ def _round(
                 for f in fits.fitted
             ),
         )
+    fits = _catalogue_first(problem, fits)
     batch = choose_batch(problem, screening, fits)
     stages.lap("polish")
     after, comparison_after, batch = _carry_batch(problem, state, screening, fits, batch)

@@ -266,10 +266,12 @@ class JointFit:
     nfev: int
 
 
-#: point candidates a joint fit leaves out: placed by the screen at the located points, a mass or a resonator
-#: there takes up a share of any structural member's mismatch (on the ``thesis`` truth a 0.15 kg resonator
-#: took the tenth place, and the left pad, the eleventh best, was not fitted); they are fitted alone
-POINT_PHYSICS = ("added_mass", "tuned_mass_damper")
+#: point candidates a joint fit leaves out: placed by the screen at the located points, a mass, a resonator
+#: or the generic local element there takes up a share of any structural member's mismatch (on the
+#: ``thesis`` truth a 0.15 kg resonator took the tenth place, and the left pad, the eleventh best, was not
+#: fitted; a spring-damper to ground at a tank's node took the place of its sloshing); they are fitted
+#: alone, where a catalogue entry at the same place competes with them on what each explains
+POINT_PHYSICS = ("added_mass", "tuned_mass_damper", "local_element")
 
 
 def _joint_members(hyps, scores, st) -> list:
