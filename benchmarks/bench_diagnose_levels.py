@@ -28,7 +28,11 @@ effect to be shown: 4 bring it to 0.41-0.44 and leave room for the model's own e
 Held-out criterion: the error of every held-out level is at least halved, **or** the error after is
 at the noise floor (within 10 % of the noise floor from the period-to-period scatter,
 ``||sigma|| / ||H||``: a level whose error was already there has nothing to halve).
-``holdout_met`` gives the verdict per held-out level; the raw errors before and
+``holdout_met`` gives the verdict per held-out level. ``holdout_met_distortion_floor`` gives it
+against the noise + distortion floor instead (halved, or within 10 % of that floor): at a level where
+the joint barely slips the error before the fit is already at that floor, and the stochastic
+nonlinear distortion of the realisations is what no linear model of the level can predict from the
+drive, so there is nothing to halve. The raw errors before and
 after, the noise floor, the noise + distortion floor and the error of the level's own modal fit
 (poles and residues fitted on that level: what a linear model fitted to the level itself leaves)
 are reported beside it.
@@ -154,6 +158,11 @@ def run_twin(seed: int, friction: bool, out: Path | None, realisations: int = 4,
         fig["holdout_floor_over_before"] = [v["mean_floor"] / v["mean_before"] for v in ho]
         fig["holdout_met"] = [
             bool(v["mean_after"] <= 0.5 * v["mean_before"] or v["mean_after"] <= 1.1 * v["mean_noise_floor"])
+            for v in ho
+        ]
+
+        fig["holdout_met_distortion_floor"] = [
+            bool(v["mean_after"] <= 0.5 * v["mean_before"] or v["mean_after"] <= 1.1 * v["mean_floor"])
             for v in ho
         ]
 

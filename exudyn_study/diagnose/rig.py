@@ -27,7 +27,10 @@ explain (:mod:`~exudyn_study.diagnose.rig_explain`); settings in
    member of that joint fit judged on its own (taken out, the others refitted, it must lose on the
    training AIC and on the held-out error). With one drive at two training levels the nonlinear
    candidates are fitted on the level-dependent share of the response (``y_strong - c y_weak``).
-   Last, the generic local element stands in for physics outside the catalogue.
+   Last, the generic local element stands in for physics outside the catalogue. The generic element
+   gives way to a catalogue fit that explains nearly as much (within 5 %); a point fit (a mass, a
+   resonator, the generic element) is refitted at a better mesh node within 0.26 m when the fitted
+   element explains clearly more there (:mod:`~exudyn_study.diagnose.rig_refine`).
 5. **Prove**: a round's findings must not raise the held-out error nor make more than
    ``max_channels_worse`` of the held-out channels materially worse; a nonlinear finding fitted on
    the level-dependent share is proven on that share at a held-out level of the same drive (it must
@@ -72,6 +75,7 @@ from exudyn_study.diagnose.rig_hypotheses import OutputChain
 from exudyn_study.diagnose.rig_locate import distortion_shares, is_level_dependent, level_pair, locate
 from exudyn_study.diagnose.rig_pool import evaluation_pool
 from exudyn_study.diagnose.rig_prove import channel_verdict, prove, relative_damage
+from exudyn_study.diagnose.rig_refine import refine_places
 from exudyn_study.diagnose.rig_screen import screen
 from exudyn_study.diagnose.rig_settings import RigDiagnosisSettings
 from exudyn_study.diagnose.rig_state import (
@@ -323,6 +327,22 @@ def _generic_if_better(problem: RigProblem, state: ModelState, screening, fits, 
 GENERIC_MARGIN = 0.05
 
 
+def _why_none(problem: RigProblem, screening, fits) -> str:
+    """Return what the round's fits explained, or (none fitted) what the best-screened candidates would."""
+    if fits.fitted:
+        return "; ".join(
+            f"{f['h'].label} improves {100 * f['improvement']:.0f} % ({f['rejected']})" for f in fits.fitted
+        )
+    from exudyn_study.diagnose.rig_fit import screened_improvement
+
+    best = sorted(zip(screening.scores, screening.hyps, strict=True), key=lambda t: -t[0])[:3]
+    return (
+        "the best-screened candidates would explain at most "
+        + ", ".join(f"{h.label} {100 * screened_improvement(s):.0f} %" for s, h in best)
+        + f" (a finding needs {100 * problem.settings.min_improvement:.0f} %; not fitted)"
+    )
+
+
 def _catalogue_first(problem: RigProblem, fits):
     """Drop the generic local element's fits when a catalogue fit explains nearly as much.
 
@@ -388,13 +408,11 @@ def _round(
             state,
             comparison,
             progress,
-            "no catalogue entry explains it: "
-            + "; ".join(
-                f"{f['h'].label} improves {100 * f['improvement']:.0f} % ({f['rejected']})"
-                for f in fits.fitted
-            ),
+            "no catalogue entry explains it: " + _why_none(problem, screening, fits),
         )
     fits = _catalogue_first(problem, fits)
+    fits = refine_places(problem, state, screening, fits)
+    stages.lap("refine_places")
     batch = choose_batch(problem, screening, fits)
     stages.lap("polish")
     after, comparison_after, batch = _carry_batch(problem, state, screening, fits, batch)

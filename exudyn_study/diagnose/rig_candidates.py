@@ -370,7 +370,7 @@ def place_map(model, location: str) -> np.ndarray:
     return full
 
 
-def _place_where(ctx: CandidateContext, place: str) -> tuple:
+def place_where(ctx: CandidateContext, place: str) -> tuple:
     """Return (component and sensors, displacement map) of a place of the structure screen."""
     if "#" in place:
         body = place.partition("#")[0]
@@ -405,7 +405,7 @@ def _at_best_places(ctx: CandidateContext, kind: str, seen: list, min_distance_m
         if any(np.linalg.norm(pos - q) < min_distance_m for q in seen) or (kind, best["place"]) in ctx.done:
             continue
         seen.append(pos)
-        where, p_map = _place_where(ctx, best["place"])
+        where, p_map = place_where(ctx, best["place"])
         if kind == "added_mass":
             h = AddedMassHypothesis(best["place"], ctx.lin, p_map, start=best["values"]["mass_kg"], **where)
             h.screen_grid = tuple((v,) for v in (1.0, 3.0, 10.0, 30.0))

@@ -215,7 +215,12 @@ def batch_of(ok, max_batch: int) -> list:
 
 
 def _chosen(screening: Screening, st) -> list:
-    """Return the candidates fitted in full: the best ``n_fit``, at most ``n_fit_simulated`` simulated."""
+    """Return the candidates fitted in full: the best ``n_fit``, at most ``n_fit_simulated`` simulated.
+
+    A linear candidate whose screening share implies less than ``min_screen_improvement`` of the
+    residual's rms (:func:`screened_improvement`) is not fitted: its full fit starts from the screen's
+    optimum and could not reach ``min_improvement``.
+    """
     chosen, n_simulated = [], 0
     for i in screening.order:
         if len(chosen) == st.n_fit:
@@ -224,8 +229,29 @@ def _chosen(screening: Screening, st) -> list:
             if n_simulated == st.n_fit_simulated:
                 continue
             n_simulated += 1
+        elif screened_improvement(screening.scores[i]) < st.min_screen_improvement:
+            continue
         chosen.append(i)
     return chosen
+
+
+def screened_improvement(share: float) -> float:
+    """Return the share of the residual's rms a screening share of its square removes, ``1 - sqrt(1 - s)``.
+
+    The screening score is a share of the residual sum of squares; a fit's ``improvement`` is a share of
+    its root (the relative error).
+
+    Parameters
+    ----------
+    share : float
+        Screening share of the residual sum of squares (0-1).
+
+    Returns
+    -------
+    float
+        The implied improvement (0-1).
+    """
+    return 1.0 - math.sqrt(min(max(1.0 - float(share), 0.0), 1.0))
 
 
 def fit_one(problem: RigProblem, screening: Screening, i: int) -> dict:

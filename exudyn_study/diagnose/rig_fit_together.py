@@ -618,6 +618,7 @@ def final_refit(
         std_k = np.array([std[spec[n]] if n in spec else 0.0 for n in h.names])
         bound_k = np.array([bool(at_bound[spec[n]]) if n in spec else True for n in h.names])
         flags = _refit_flags(comp, h, spec, good, at_bound, rel_std, drift)
+        flags += _neutral_flags(h, spec, p, std)
         out_std.append(std_k)
         out_bound.append(bound_k)
         out_flags.append(flags)
@@ -667,6 +668,28 @@ def _refit_flags(comp, h, spec: dict, good, at_bound, rel_std, drift) -> list:
                 )
             )
     return flags
+
+
+#: a finding whose every parameter with a value meaning "no effect" (its ``neutral``) lies within this
+#: many standard deviations of it is not established by the data
+NEUTRAL_Z = 2.0
+
+
+def _neutral_flags(h, spec: dict, p, std) -> list:
+    """Return a member's flag when the final joint refit cannot tell it from the model without it.
+
+    A finding is carried by the parameters that move the model away from its state without the finding
+    (:attr:`Hypothesis.neutral`: a scale factor of 1, a mass of 0, a rigid joint). When each of them lies
+    within :data:`NEUTRAL_Z` standard deviations of that value once all findings are refitted together,
+    the data do not establish the finding (other findings took over what it explained in its round).
+    """
+    names = [n for n in (h.neutral or {}) if n in spec]
+    if not names or not all(abs(p[spec[n]] - h.neutral[n]) <= NEUTRAL_Z * std[spec[n]] for n in names):
+        return []
+    values = ", ".join(
+        f"{n} {p[spec[n]]:.3g} +- {std[spec[n]]:.2g} (without it {h.neutral[n]:.3g})" for n in names
+    )
+    return [f"not distinguishable from the model without it in the joint refit of all findings: {values}"]
 
 
 def _refit_findings_text(refit: dict, progress: Progress) -> Progress:

@@ -30,6 +30,8 @@ __all__ = [
     "structure_places",
     "LocalSensitivity",
     "screen_places",
+    "PlaceScorer",
+    "score_places_task",
     "PLACE_SPACING_M",
     "TMD_TUNINGS_HZ",
 ]
@@ -185,7 +187,23 @@ class LocalSensitivity:
         tuple of numpy.ndarray
             ``(U^T D^-1 U, S N^T D^-1 U, c)``: shapes (n_f, 3, 3), (n_f, n_s, 3) and (n_f, 3).
         """
-        u = self.null @ place_map.T  # (n, 3)
+        return self.at_reduced(self.null @ place_map.T, place_map @ self.drive)
+
+    def at_reduced(self, u: np.ndarray, drive_motion: np.ndarray) -> tuple:
+        """Return what :meth:`at` returns, from the place's map on the independent coordinates.
+
+        Parameters
+        ----------
+        u : numpy.ndarray
+            ``N P^T``: the place's displacement map on the independent coordinates, shape (n, 3).
+        drive_motion : numpy.ndarray
+            ``P r``: the place's displacement per unit drive, shape (3,).
+
+        Returns
+        -------
+        tuple of numpy.ndarray
+            As :meth:`at`.
+        """
         ul, ru = u.T @ self.left, self.right @ u  # (3, 2n), (2n, 3)
         n_f, n_s = self.pole.shape[1], self.sensor_left.shape[0]
         # sums over the modes k as one product each: (pairs, k) @ (k, n_f)
@@ -193,7 +211,7 @@ class LocalSensitivity:
         a_mat = (outer_a @ self.pole).reshape(3, 3, n_f).transpose(2, 0, 1)
         outer_b = (self.sensor_left[:, None, :] * ru.T[None, :, :]).reshape(3 * n_s, -1)
         b_mat = (outer_b @ self.pole).reshape(n_s, 3, n_f).transpose(2, 0, 1)
-        c_vec = (u.T @ self.z0).T + (place_map @ self.drive)[None, :]  # (n_f, 3)
+        c_vec = (u.T @ self.z0).T + np.asarray(drive_motion)[None, :]  # (n_f, 3)
         return a_mat, b_mat, c_vec
 
     def frf(self, place, mu: np.ndarray) -> np.ndarray:
@@ -299,7 +317,11 @@ SCREEN_ELEMENTS = {
 }
 
 
-def screen_places(lin, places: Places, ev_spectral, gains=None, elements=None) -> list:
+#: chunks the places are split into on a Dask cluster (locally: one per worker)
+SCHEDULER_CHUNKS = 4
+
+
+def screen_places(lin, places: Places, ev_spectral, gains=None, elements=None, pool=None) -> list:
     """Score a local element at every place against the measured transmissibilities.
 
     Parameters
@@ -313,6 +335,9 @@ def screen_places(lin, places: Places, ev_spectral, gains=None, elements=None) -
         The output gains found so far.
     elements : dict, optional
         Kind -> parameter sets (default :data:`SCREEN_ELEMENTS`).
+    pool : EvaluationPool or None, optional
+        Workers the places are split over (:meth:`~exudyn_study.diagnose.rig_pool.EvaluationPool.map_shared`;
+        None: this process). Each place's score is the same arithmetic either way.
 
     Returns
     -------
@@ -320,43 +345,133 @@ def screen_places(lin, places: Places, ev_spectral, gains=None, elements=None) -
         Per place and kind, the best parameter set: ``place``, ``position_m``, ``kind``, ``values``,
         ``share`` (of the current residual it removes); best first.
     """
-    from exudyn_study.diagnose.rig_hypotheses import apply_output_frf
-
     elements = elements or SCREEN_ELEMENTS
     rec = ev_spectral.recs[0]
     rows = [list(lin.sensor_names).index(c) for c in rec.channels]
     sens = LocalSensitivity(lin, ev_spectral.f, rows)
-
-    def rss(h):  # h (g, n_s, n_f) -> (g,)
-        total = np.zeros(h.shape[0])
-        for r, log_h, w in zip(ev_spectral.recs, ev_spectral.log_h, ev_spectral.weight, strict=True):
-            if gains is None or isinstance(gains, np.ndarray):  # a gain per channel: one product
-                hm = h if gains is None else h * np.asarray(gains)[None, :, None]
-            else:
-                hm = np.array([apply_output_frf(x, gains, r.channels, ev_spectral.f) for x in h])
-            e = w[None] * (np.log(np.abs(hm) + 1e-300) - log_h[None])
-            total += np.sum(e**2, axis=(1, 2)) / e[0].size
-        return total
-
-    rss0 = float(rss(sens.h0[None])[0])
-    mus = {kind: np.array([element_mu(sens.omega, **v) for v in grid]) for kind, grid in elements.items()}
+    scorer = PlaceScorer(
+        sens,
+        [np.asarray(x) for x in ev_spectral.log_h],
+        [np.asarray(w) for w in ev_spectral.weight],
+        [tuple(r.channels) for r in ev_spectral.recs],
+        gains,
+        elements,
+    )
+    # what each place needs: its map on the independent coordinates and its motion per unit drive
+    reduced = [(sens.null @ m.T, m @ sens.drive) for m in places.maps]
+    parallel = pool is not None and pool.parallel
+    n_chunks = (pool.workers or SCHEDULER_CHUNKS) if parallel else 1
+    bounds = np.linspace(0, len(reduced), n_chunks + 1).astype(int)
+    chunks = [list(range(a, b)) for a, b in zip(bounds[:-1], bounds[1:], strict=True) if b > a]
+    tasks = [[reduced[i] for i in c] for c in chunks]
+    if parallel and len(tasks) > 1:
+        parts = pool.map_shared(score_places_task, scorer, tasks)
+    else:
+        parts = [scorer.score(t) for t in tasks]
     out = []
-    for name, pos, p_map in zip(places.names, places.positions, places.maps, strict=True):
-        prep = sens.at(p_map)
-        for kind, grid in elements.items():
-            with np.errstate(all="ignore"):
-                values = rss(sens.frf(prep, mus[kind]))
-            values = np.where(np.isfinite(values), values, np.inf)
-            k = int(np.argmin(values))
-            if np.isfinite(values[k]):
+    for chunk, part in zip(chunks, parts, strict=True):
+        for i, best in zip(chunk, part, strict=True):
+            for kind, k, share in best:
                 out.append(
                     {
-                        "place": name,
-                        "position_m": [float(v) for v in pos],
+                        "place": places.names[i],
+                        "position_m": [float(v) for v in places.positions[i]],
                         "kind": kind,
-                        "values": dict(grid[k]),
-                        "share": max(0.0, 1.0 - float(values[k]) / rss0) if rss0 > 0 else 0.0,
+                        "values": dict(elements[kind][k]),
+                        "share": share,
                     }
                 )
     out.sort(key=lambda d: -d["share"])
     return out
+
+
+class PlaceScorer:
+    """Scores local elements at places against measured transmissibilities (what a worker receives).
+
+    Parameters
+    ----------
+    sens : LocalSensitivity
+        The current model's nominal FRFs and their low-rank updates.
+    log_h : list of numpy.ndarray
+        Per recording, the measured log transmissibilities, shape (n_s, n_f).
+    weight : list of numpy.ndarray
+        Per recording, their weights, shape (n_s, n_f).
+    channels : list of tuple of str
+        Per recording, its channels in row order.
+    gains : numpy.ndarray or OutputChain or None
+        The output gains found so far.
+    elements : dict
+        Kind -> parameter sets.
+    """
+
+    def __init__(self, sens, log_h, weight, channels, gains, elements):
+        self.sens = sens
+        self.log_h, self.weight, self.channels = log_h, weight, channels
+        self.gains = gains
+        self.kinds = list(elements)
+        self.mus = {k: np.array([element_mu(sens.omega, **v) for v in grid]) for k, grid in elements.items()}
+        self.rss0 = float(self.rss(sens.h0[None])[0])
+
+    def rss(self, h: np.ndarray) -> np.ndarray:
+        """Return the weighted log-magnitude residual of FRF sets ``h`` (g, n_s, n_f) over the recordings."""
+        from exudyn_study.diagnose.rig_hypotheses import apply_output_frf
+
+        total = np.zeros(h.shape[0])
+        gains, f = self.gains, self.sens.f
+        for channels, log_h, w in zip(self.channels, self.log_h, self.weight, strict=True):
+            if gains is None or isinstance(gains, np.ndarray):  # a gain per channel: one product
+                hm = h if gains is None else h * np.asarray(gains)[None, :, None]
+            else:
+                hm = np.array([apply_output_frf(x, gains, channels, f) for x in h])
+            e = w[None] * (np.log(np.abs(hm) + 1e-300) - log_h[None])
+            total += np.sum(e**2, axis=(1, 2)) / e[0].size
+        return total
+
+    def score(self, reduced: list) -> list:
+        """Per place, ``(kind, index of the best parameter set, share)`` for each kind with a finite best.
+
+        Parameters
+        ----------
+        reduced : list of tuple
+            Per place, ``(u, drive_motion)`` as :meth:`LocalSensitivity.at_reduced` takes them.
+
+        Returns
+        -------
+        list of list of tuple
+            Per place, one ``(kind, k, share)`` per kind.
+        """
+        out = []
+        for u, drive_motion in reduced:
+            prep = self.sens.at_reduced(u, drive_motion)
+            best = []
+            for kind in self.kinds:
+                with np.errstate(all="ignore"):
+                    values = self.rss(self.sens.frf(prep, self.mus[kind]))
+                values = np.where(np.isfinite(values), values, np.inf)
+                k = int(np.argmin(values))
+                if np.isfinite(values[k]):
+                    share = max(0.0, 1.0 - float(values[k]) / self.rss0) if self.rss0 > 0 else 0.0
+                    best.append((kind, k, share))
+            out.append(best)
+        return out
+
+
+def score_places_task(scorer: PlaceScorer, reduced: list) -> list:
+    """:meth:`PlaceScorer.score` in a worker (BLAS on one thread).
+
+    Parameters
+    ----------
+    scorer : PlaceScorer
+        The scorer (sent once per screen).
+    reduced : list of tuple
+        The chunk's places, as :meth:`PlaceScorer.score` takes them.
+
+    Returns
+    -------
+    list
+        As :meth:`PlaceScorer.score`.
+    """
+    from exudyn_study.infra.blas import single_threaded_blas
+
+    with single_threaded_blas():
+        return scorer.score(reduced)

@@ -152,6 +152,43 @@ class EvaluationPool:
 
         return m
 
+    def map_shared(self, fn, shared, items) -> list:
+        """Return ``[fn(shared, item) for item in items]``, evaluated in the workers.
+
+        ``shared`` goes to the workers once (as an evaluator does); ``fn`` must be a module-level
+        function. Serially (or when ``shared`` cannot be sent) in this process.
+
+        Parameters
+        ----------
+        fn : callable
+            ``fn(shared, item)``, importable by the workers.
+        shared : object
+            What every call needs.
+        items : list
+            One call each.
+
+        Returns
+        -------
+        list
+            The results, in the order of ``items``.
+        """
+        if not self.parallel:
+            return [fn(shared, item) for item in items]
+        try:
+            ref = self._context(("shared", next(self._count)), shared)
+        except NotSendable as exc:
+            log.debug("%s stays serial: %s", getattr(fn, "__name__", fn), exc)
+            return [fn(shared, item) for item in items]
+        try:
+            if self._client is not None:
+                futures = [self._client.submit(shared_task, fn, ref, item, pure=False) for item in items]
+                return self._client.gather(futures)
+            n = len(items)
+            return list(self._local().map(shared_task, [fn] * n, [ref] * n, items))
+        finally:  # sent for this map only
+            for key in [k for k in self._contexts if k[0] == "shared"]:
+                self._drop(key)
+
     def _context(self, key, obj):
         """Send ``obj`` to the workers once; its reference (a file path or a Dask future).
 
@@ -306,6 +343,26 @@ def evaluate_task(ev_ref, h_ref, header, x) -> np.ndarray:
     with single_threaded_blas():
         r = safe_residual(h, ev, channels, to_params(h, x))
     return np.full(n_rows, value) if r is None else r
+
+
+def shared_task(fn, ref, item):
+    """``fn(shared, item)`` in a worker, ``shared`` behind its context reference.
+
+    Parameters
+    ----------
+    fn : callable
+        A module-level function.
+    ref : str or object
+        The shared object's pickle file (local workers) or the object (Dask).
+    item : object
+        This call's argument.
+
+    Returns
+    -------
+    object
+        What ``fn`` returns.
+    """
+    return fn(_load(ref), item)
 
 
 def _ready(_) -> int:

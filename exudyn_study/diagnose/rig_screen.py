@@ -149,7 +149,7 @@ def candidate_context(
 
         t0 = time.perf_counter()
         places = structure_places(state.model, problem.settings.place_spacing_m, markers=state.markers)
-        best_places = screen_places(state.lin, places, problem.ev_spectral, state.gains)
+        best_places = screen_places(state.lin, places, problem.ev_spectral, state.gains, pool=problem.pool)
         problem.say(
             "screened a point mass, a tuned mass-damper and a spring-damper to ground at "
             f"{len(places.names)} places of the structure in {time.perf_counter() - t0:.1f} s"

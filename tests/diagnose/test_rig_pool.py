@@ -174,3 +174,42 @@ def test_a_fit_on_a_dask_cluster_is_the_serial_fit_bit_for_bit(bodies):
             pooled = fit_hypothesis(h, ev, channels, 6, pool=pool)
     for a, b in zip(serial, pooled, strict=True):
         assert np.array_equal(a, b)
+
+
+def test_the_place_screen_on_two_workers_is_the_serial_screen(bodies):
+    """A 12 kg point mass (a screened value) at a mesh node, its exact FRF as the measurement: the
+    structure-wide place screen split over two worker processes ranks the same places, elements and
+    grid values as the serial screen, with the same shares (1e-12), and its best point mass is the
+    truth's place."""
+    from types import SimpleNamespace
+
+    from exudyn_study.diagnose.rig_hypotheses import project
+    from exudyn_study.diagnose.rig_places import screen_places, structure_places
+    from exudyn_study.diagnose.rig_pool import evaluation_pool
+    from exudyn_study.linear.response import frf_linear
+    from exudyn_study.model import build_model_from_bodies, linearise
+
+    model = build_model_from_bodies(
+        bodies, 1, damping="constant-2", sensors=FRAME_SENSORS, exudyn_mesh="used"
+    )
+    lin = linearise(model)
+    places = structure_places(model, spacing_m=0.2)
+    k = len(places.names) // 2
+    ptp = places.maps[k].T @ places.maps[k]
+    f = np.linspace(3.0, 60.0, 115)
+    with_mass = project(lin.full_mass + 12.0 * ptp, lin.full_damping, lin.full_stiffness, lin)
+    h_true = frf_linear(with_mass, f)[:, 0]
+    ev = SimpleNamespace(
+        recs=[SimpleNamespace(channels=tuple(lin.sensor_names))], f=f,
+        log_h=[np.log(np.abs(h_true))], weight=[np.ones(h_true.shape)],
+    )
+    serial = screen_places(lin, places, ev)
+    with evaluation_pool(2) as pool:
+        pooled = screen_places(lin, places, ev, pool=pool)
+        assert not pool._contexts  # the scorer sent for this screen only
+    assert [(b["place"], b["kind"], b["values"]) for b in serial] == [
+        (b["place"], b["kind"], b["values"]) for b in pooled
+    ]
+    np.testing.assert_allclose([b["share"] for b in pooled], [b["share"] for b in serial], rtol=0, atol=1e-12)
+    best_mass = next(b for b in serial if b["kind"] == "added_mass")
+    assert best_mass["place"] == places.names[k] and best_mass["share"] > 0.99

@@ -189,3 +189,20 @@ def test_both_soft_rear_supports_are_found_and_refitted_together(bodies):
         assert not f.parameters["vertical_stiffness_n_per_m"]["at_bound"]
         assert not any("not identifiable" in t or "drift" in t for t in f.flags)
     assert d.metadata["final_refit"]["members"]
+
+
+def test_a_finding_the_joint_refit_cannot_tell_from_no_effect_is_flagged():
+    """A modal-damping scale of 1.04 +- 0.28 after the final joint refit is within two standard deviations
+    of 1 (no change): flagged as not distinguishable from the model without it; 1.6 +- 0.1 is not flagged,
+    nor is a finding without a neutral value (a sensor polarity)."""
+    from types import SimpleNamespace
+
+    from exudyn_study.diagnose.rig_fit_together import _neutral_flags
+
+    damping = SimpleNamespace(neutral={"factor": 1.0})
+    spec = {"factor": 1}
+    flags = _neutral_flags(damping, spec, np.array([2e7, 1.04]), np.array([1e5, 0.28]))
+    assert len(flags) == 1 and "factor 1.04 +- 0.28 (without it 1)" in flags[0]
+    assert _neutral_flags(damping, spec, np.array([2e7, 1.6]), np.array([1e5, 0.1])) == []
+    polarity = SimpleNamespace(neutral=None)
+    assert _neutral_flags(polarity, spec, np.array([0.0, -1.0]), np.array([0.0, 5.0])) == []
