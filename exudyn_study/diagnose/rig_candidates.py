@@ -389,14 +389,50 @@ def place_where(ctx: CandidateContext, place: str) -> tuple:
     )
 
 
-def _at_best_places(ctx: CandidateContext, kind: str, seen: list, min_distance_m: float = 0.1) -> list:
-    """Hypotheses of ``kind`` at the structure screen's best places away from the points in ``seen``."""
+#: the point hypotheses' kinds (their parameters are those of a local element at a point)
+POINT_KINDS = ("added_mass", "tuned_mass_damper", "local_element")
+
+
+def point_hypothesis(kind: str, place: str, lin, p_map: np.ndarray, values: dict, **where):
+    """Return the point hypothesis of ``kind`` at a place, started at ``values``.
+
+    Parameters
+    ----------
+    kind : str
+        ``'added_mass'``, ``'tuned_mass_damper'`` or ``'local_element'`` (the generic element).
+    place : str
+        The place (a sensor, an interface or ``'body#node'``).
+    lin : LinearSystem
+        The current model's linearisation.
+    p_map : numpy.ndarray
+        The place's displacement map, shape (3, n_q).
+    values : dict
+        Start values by parameter name (those of :func:`~exudyn_study.diagnose.rig_places.element_mu`).
+    **where
+        Further :class:`~exudyn_study.diagnose.rig_hypotheses.Hypothesis` fields (``component``,
+        ``sensors``, ``screen_grid``, ...).
+
+    Returns
+    -------
+    Hypothesis
+    """
     from exudyn_study.diagnose.rig_hypotheses import (
         AddedMassHypothesis,
         GroundElementHypothesis,
         PointResonatorHypothesis,
     )
 
+    if kind == "added_mass":
+        return AddedMassHypothesis(place, lin, p_map, start=values["mass_kg"], **where)
+    if kind == "tuned_mass_damper":
+        return PointResonatorHypothesis(place, lin, p_map, dict(values), **where)
+    if kind == "local_element":
+        return GroundElementHypothesis(place, lin, p_map, dict(values), **where)
+    raise ValueError(f"point_hypothesis: kind {kind!r}; expected one of {POINT_KINDS}")
+
+
+def _at_best_places(ctx: CandidateContext, kind: str, seen: list, min_distance_m: float = 0.1) -> list:
+    """Hypotheses of ``kind`` at the structure screen's best places away from the points in ``seen``."""
     out = []
     for best in [b for b in ctx.best_places if b["kind"] == kind]:
         if len(out) == BEST_PLACES:
@@ -406,14 +442,12 @@ def _at_best_places(ctx: CandidateContext, kind: str, seen: list, min_distance_m
             continue
         seen.append(pos)
         where, p_map = place_where(ctx, best["place"])
+        h = point_hypothesis(kind, best["place"], ctx.lin, p_map, best["values"], **where)
         if kind == "added_mass":
-            h = AddedMassHypothesis(best["place"], ctx.lin, p_map, start=best["values"]["mass_kg"], **where)
             h.screen_grid = tuple((v,) for v in (1.0, 3.0, 10.0, 30.0))
         elif kind == "tuned_mass_damper":
-            h = PointResonatorHypothesis(best["place"], ctx.lin, p_map, dict(best["values"]), **where)
             h.screen_grid = tmd_grid_near(best["values"])
-        else:
-            h = GroundElementHypothesis(best["place"], ctx.lin, p_map, dict(best["values"]), **where)
+        else:  # the screen's grid holds zero stiffness: a log parameter starts above it
             h.start = np.maximum(h.start, h.upper * 1e-5)
         h.position_m = [float(v) for v in pos]
         out.append(h)
@@ -1482,29 +1516,39 @@ def generic_local_elements(ctx: CandidateContext, n_places: int = 6) -> list:
     The last candidate of a round: tried when no catalogue candidate explains the mismatch. Its
     finding is reported as outside the catalogue (physics ``'local_element'``).
     """
-    from exudyn_study.diagnose.rig_hypotheses import GroundElementHypothesis
+    seen = [np.asarray(ctx.markers[loc][1], dtype=float) for loc in point_places(ctx, n_places)]
+    out = _at_best_places(ctx, "local_element", list(seen))
+    done = {loc for name, loc in ctx.done if name in ("local_element", "ground_spring_damper")}
+    out += [h for h in _ground_elements_at(ctx, point_places(ctx, n_places), []) if h.location not in done]
+    for h in out:
+        h.screen_grid = GENERIC_SCREEN_GRID
+    return out
+
+
+#: the generic element's screening grid: (stiffness N/m, damping N s/m)
+GENERIC_SCREEN_GRID = tuple((k, c) for k in (1e4, 1e6) for c in (30.0, 1e3, 3e4))
+
+
+def _ground_elements_at(ctx: CandidateContext, locations, seen: list) -> list:
+    """Return the generic element at sensor points (skipping those within 1 um of a point in ``seen``)."""
     from exudyn_study.linear.nonlinear import marker_displacement_map
 
-    grid = tuple((k, c) for k in (1e4, 1e6) for c in (30.0, 1e3, 3e4))
     out = []
-    seen = [np.asarray(ctx.markers[loc][1], dtype=float) for loc in point_places(ctx, n_places)]
-    for h in _at_best_places(ctx, "local_element", list(seen)):
-        h.screen_grid = grid
-        out.append(h)
-    for loc in point_places(ctx, n_places):
-        if ("local_element", loc) in ctx.done or ("ground_spring_damper", loc) in ctx.done:
+    for loc in locations:
+        pos = np.asarray(ctx.markers[loc][1], dtype=float)
+        if any(np.linalg.norm(pos - q) < 1e-6 for q in seen):
             continue
-        out.append(
-            GroundElementHypothesis(
-                loc,
-                ctx.lin,
-                marker_displacement_map(ctx.model, ctx.markers[loc][0]),
-                {"stiffness_n_per_m": 1e4, "damping_n_s_per_m": 1e3},
-                component=sensor_component(loc),
-                sensors=(loc,),
-                screen_grid=grid,
-            )
+        h = point_hypothesis(
+            "local_element",
+            loc,
+            ctx.lin,
+            marker_displacement_map(ctx.model, ctx.markers[loc][0]),
+            {"stiffness_n_per_m": 1e4, "damping_n_s_per_m": 1e3},
+            component=sensor_component(loc),
+            sensors=(loc,),
         )
+        h.position_m = [float(v) for v in pos]
+        out.append(h)
     return out
 
 
@@ -1568,30 +1612,14 @@ def _local_element_screened(ctx: CandidateContext):
     rivals = [best[k] for k in ("added_mass", "tuned_mass_damper") if k in best]
     if local["share"] < LOCAL_MIN_SHARE or any(local["share"] < r["share"] + LOCAL_MARGIN for r in rivals):
         return []
-    from exudyn_study.diagnose.rig_hypotheses import GroundElementHypothesis
-    from exudyn_study.linear.nonlinear import marker_displacement_map
-
     closest = tuple((f"{r['kind']}@{r['place']}", float(r["share"])) for r in rivals)
     seen: list = []
     out = _at_best_places(ctx, "local_element", seen)
     # and at the strongest located points: a dashpot at a sensor's point is exact there, while the
     # screen's best places are on a grid (a resonator with its extra parameter fits a near place better)
-    for loc in point_places(ctx, RESONATOR_PLACES):
-        pos = np.asarray(ctx.markers[loc][1], dtype=float)
-        if any(np.linalg.norm(pos - q) < 1e-6 for q in seen):
-            continue
-        h = GroundElementHypothesis(
-            loc,
-            ctx.lin,
-            marker_displacement_map(ctx.model, ctx.markers[loc][0]),
-            {"stiffness_n_per_m": 1e4, "damping_n_s_per_m": 1e3},
-            component=sensor_component(loc),
-            sensors=(loc,),
-        )
-        h.position_m = [float(v) for v in pos]
-        out.append(h)
+    out += _ground_elements_at(ctx, point_places(ctx, RESONATOR_PLACES), seen)
     for h in out:
-        h.screen_grid = tuple((k, c) for k in (1e4, 1e6) for c in (30.0, 1e3, 3e4))
+        h.screen_grid = GENERIC_SCREEN_GRID
         h.place = point_of(h, ctx.markers)
         h.closest = closest
     done = {loc for name, loc in ctx.done if name in ("local_element", "ground_spring_damper")}

@@ -14,12 +14,11 @@ from __future__ import annotations
 
 import numpy as np
 
+from exudyn_study.diagnose.rig_candidates import POINT_KINDS
 from exudyn_study.diagnose.rig_fit import fit_one, judge
 
 __all__ = ["refine_places", "nodes_near", "REFINE_RADIUS_M", "REFINE_SPACING_M", "REFINE_MIN_GAIN"]
 
-#: point physics whose place is refined (their parameters are the element's, :func:`element_mu`)
-POINT_KINDS = ("added_mass", "tuned_mass_damper", "local_element")
 #: mesh nodes within this distance (m) of a point fit's place are tried (the screen's cube diagonal)
 REFINE_RADIUS_M = 0.26
 #: one node per cube of this edge (m) among them
@@ -157,22 +156,11 @@ def refine_places(problem, state, screening, fits):
 
 def _moved(h, ctx, place: str, values: dict, lin):
     """Return a hypothesis like ``h`` at mesh node ``place``, started at ``values``."""
-    from exudyn_study.diagnose.rig_candidates import place_where
-    from exudyn_study.diagnose.rig_hypotheses import (
-        AddedMassHypothesis,
-        GroundElementHypothesis,
-        PointResonatorHypothesis,
-    )
+    from exudyn_study.diagnose.rig_candidates import place_where, point_hypothesis
 
     where, p_map = place_where(ctx, place)
-    if h.physics == "added_mass":
-        moved = AddedMassHypothesis(place, lin, p_map, start=values["mass_kg"], **where)
-    elif h.physics == "tuned_mass_damper":
-        moved = PointResonatorHypothesis(place, lin, p_map, dict(values), **where)
-    else:
-        moved = GroundElementHypothesis(place, lin, p_map, dict(values), **where)
-        moved.start = np.clip(moved.start, moved.lower, moved.upper)
-    for attr in ("closest",):
-        if hasattr(h, attr):
-            setattr(moved, attr, getattr(h, attr))
+    moved = point_hypothesis(h.physics, place, lin, p_map, values, **where)
+    moved.start = np.clip(moved.start, moved.lower, moved.upper)
+    if hasattr(h, "closest"):
+        moved.closest = h.closest
     return moved
