@@ -254,9 +254,8 @@ def test_a_dashpot_between_the_screened_places_is_refitted_at_its_node(bodies):
     0.06 m of the truth with its damping within 10 %."""
     from exudyn_study.diagnose.rig import RigDiagnosisSettings, diagnose_rig
     from exudyn_study.diagnose.rig_places import PLACE_SPACING_M, structure_places
-    from exudyn_study.virtual_rig import Augment, Scenario, virtual_recording
-
     from exudyn_study.model import linearise
+    from exudyn_study.virtual_rig import Augment, Scenario, virtual_recording
 
     model = _model(bodies)
     linearise(model)  # assembled

@@ -206,3 +206,24 @@ def test_a_finding_the_joint_refit_cannot_tell_from_no_effect_is_flagged():
     assert _neutral_flags(damping, spec, np.array([2e7, 1.6]), np.array([1e5, 0.1])) == []
     polarity = SimpleNamespace(neutral=None)
     assert _neutral_flags(polarity, spec, np.array([0.0, -1.0]), np.array([0.0, 5.0])) == []
+
+
+def test_a_drift_along_a_direction_the_recordings_hardly_see_does_not_count(monkeypatch):
+    """Two recordings whose own fits differ in both parameters: the first carries the residual (each
+    recording's fit gets 40 % worse at the other's value: it drifts), the second barely moves it (a
+    fore-aft stiffness anywhere in its rigid range: each recording fits the other's value within 1 %)."""
+    from types import SimpleNamespace
+
+    import exudyn_study.diagnose.rig_evaluate as ev_mod
+
+    truth = {"a": (5.0, 2e9), "b": (7.0, 6e9)}  # each recording's own optimum
+
+    def residual(h, sub, channels, q):
+        own = truth[sub]
+        return np.array([1.0, q[0] - own[0], 1e-4 * np.log(q[1] / own[1])])
+
+    monkeypatch.setattr(ev_mod, "safe_residual", residual)
+    est = np.array([truth["a"], truth["b"]])
+    h = SimpleNamespace()
+    assert ev_mod._drift_matters(h, ["a", "b"], (), est, [1.0, 1.0], 0)
+    assert not ev_mod._drift_matters(h, ["a", "b"], (), est, [1.0, 1.0], 1)
