@@ -411,7 +411,7 @@ def _round(
             "no catalogue entry explains it: " + _why_none(problem, screening, fits),
         )
     fits = _catalogue_first(problem, fits)
-    fits = refine_places(problem, state, screening, fits)
+    fits = refine_places(problem, state, screening, fits, meta, round_no)
     stages.lap("refine_places")
     batch = choose_batch(problem, screening, fits)
     stages.lap("polish")

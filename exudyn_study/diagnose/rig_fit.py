@@ -370,8 +370,8 @@ def check_drift(problem: RigProblem, screening: Screening, fitted: list) -> None
                 problem.say(f"{f['h'].label}: {f['rejected']}")
 
 
-def _candidates_meta(fitted, round_no: int, aic0: float) -> list:
-    """Return the JSON's ``candidates`` entries of a round's single fits."""
+def candidates_meta(fitted, round_no: int, aic0: float) -> list:
+    """Return the JSON's ``candidates`` entries of a round's single fits (``aic0``: the model's own AIC)."""
     return [
         {
             "round": round_no + 1,
@@ -386,6 +386,7 @@ def _candidates_meta(fitted, round_no: int, aic0: float) -> list:
             "response_ratio": round(f["response_ratio"], 4),
             "parameters": dict(zip(f["h"].names, np.round(f["p"], 6).tolist(), strict=True)),
             **({"per_recording": f["drift"]["per_recording"]} if f.get("drift") else {}),
+            **({"refined_from": f["refined_from"]} if f.get("refined_from") else {}),
         }
         for f in fitted
     ]
@@ -425,7 +426,7 @@ def fit_round(
     if st.drift_check and len(problem.train_recs) > 1:
         check_drift(problem, screening, fitted)
     aic0 = aic(screening.rss0, 0, effective_samples(screening.ev_fit))
-    meta["candidates"] += _candidates_meta(fitted, round_no, aic0)
+    meta["candidates"] += candidates_meta(fitted, round_no, aic0)
     ok = [f for f in fitted if f["rejected"] is None]
     if ok or not screening.spectral or st.composite_max <= 1:
         return RoundFits(tuple(fitted), tuple(ok))
@@ -598,6 +599,6 @@ def fit_generic(
     for f in fitted:
         f["rejected"] = judge(f, st)
     aic0 = aic(screening.rss0, 0, effective_samples(screening.ev_fit))
-    meta["candidates"] += _candidates_meta(fitted, round_no, aic0)
+    meta["candidates"] += candidates_meta(fitted, round_no, aic0)
     ok = [f for f in fitted if f["rejected"] is None]
     return RoundFits(fits.fitted + tuple(fitted), tuple(ok), nonlinear_s=fits.nonlinear_s)

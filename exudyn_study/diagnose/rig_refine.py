@@ -15,7 +15,8 @@ from __future__ import annotations
 import numpy as np
 
 from exudyn_study.diagnose.rig_candidates import POINT_KINDS
-from exudyn_study.diagnose.rig_fit import fit_one, judge
+from exudyn_study.diagnose.rig_evaluate import aic, effective_samples
+from exudyn_study.diagnose.rig_fit import candidates_meta, fit_one, judge
 
 __all__ = ["refine_places", "nodes_near", "REFINE_RADIUS_M", "REFINE_SPACING_M", "REFINE_MIN_GAIN"]
 
@@ -76,7 +77,7 @@ def nodes_near(
     return out
 
 
-def refine_places(problem, state, screening, fits):
+def refine_places(problem, state, screening, fits, meta: dict, round_no: int):
     """Refit each acceptable point fit of the round at a better mesh node nearby, when there is one.
 
     Parameters
@@ -89,6 +90,10 @@ def refine_places(problem, state, screening, fits):
         The round's screening (its context, the evaluator each fit is judged on).
     fits : RoundFits
         The round's fits.
+    meta : dict
+        The diagnosis metadata; the refits are appended to ``meta['candidates']`` (``refined_from``).
+    round_no : int
+        Index of the round (0 for the first).
 
     Returns
     -------
@@ -151,6 +156,10 @@ def refine_places(problem, state, screening, fits):
             ok[next(i for i, g in enumerate(ok) if g is f)] = f2
         else:
             problem.say(f"  the refit at {name} does not fit better: {h.label} kept")
+    refits = fitted[len(fits.fitted) :]
+    if refits:
+        aic0 = aic(screening.rss0, 0, effective_samples(screening.ev_fit))
+        meta["candidates"] += candidates_meta(refits, round_no, aic0)
     return replace(fits, fitted=tuple(fitted), ok=tuple(ok))
 
 

@@ -280,3 +280,5 @@ def test_a_dashpot_between_the_screened_places_is_refitted_at_its_node(bodies):
     assert f.physics == "local_element"
     assert np.linalg.norm(np.asarray(f.location["position_m"]) - x[node]) < 0.06
     assert f.parameters["damping_n_s_per_m"]["value"] == pytest.approx(3000.0, rel=0.1)
+    refits = [c for c in d.metadata["candidates"] if c.get("refined_from")]
+    assert refits and refits[0]["physics"] == "local_element"  # the refit is in the JSON
