@@ -95,6 +95,7 @@ def make_finding(
     elif loose:
         bound.append("the data do not determine " + ", ".join(
             f"{n} ({params[n]['value']:.3g} +- {params[n]['std']:.2g} {params[n]['unit']})" for n in loose))
+    bound += _physics_flags(h.physics, params)
     return Finding(
         physics=h.physics,
         location={
@@ -110,6 +111,28 @@ def make_finding(
         fit=fit,
         flags=tuple(bound) + tuple(flags),
     )
+
+
+#: a tuned mass-damper this damped has no resonance of its own (quality factor 1 / (2 zeta) below 1.7)
+TMD_NO_RESONANCE_DAMPING = 0.3
+
+
+def _physics_flags(physics: str, params: dict) -> list:
+    """Return doubts particular to the physics at its fitted values.
+
+    A tuned mass-damper damped by ``TMD_NO_RESONANCE_DAMPING`` or more makes no resonance (its dynamic
+    stiffness peaks below twice the mass's own); well above its tuning its mass hardly moves and its
+    damper dissipates as a dashpot to ground, so the generic local element near it may explain the same.
+    """
+    if physics == "tuned_mass_damper" and "damping_ratio" in params:
+        zeta = params["damping_ratio"]["value"]
+        if zeta >= TMD_NO_RESONANCE_DAMPING:
+            return [
+                f"damping ratio {100 * zeta:.0f} %: no resonance of its own (quality factor below 1.7); well "
+                "above its tuning it dissipates like a dashpot to ground, so a dashpot near this place may "
+                "explain the data as well"
+            ]
+    return []
 
 
 def _determined(p: dict) -> bool:

@@ -38,3 +38,38 @@ def test_the_smallest_set_of_sensors_and_the_band_that_carry_the_residual():
     effect2[0, 0] = 2.0
     rows2, (j0, j1) = residual_carriers(m.significant | _map(effect2).significant, [m, _map(effect2)])
     assert rows2 == [0] and (j0, j1) == (0, 0)
+
+
+def test_a_tuned_mass_damper_without_a_resonance_is_flagged():
+    """A 15 kg resonator tuned to 12.4 Hz: at 40 % damping its dynamic stiffness never exceeds 1.7 times
+    the mass's own (no resonance; at 8 % it peaks at over 6 times), and from three times its tuning up it
+    dissipates within 20 % of a dashpot to ground with its damper, so a dashpot near it explains the data
+    as well. Its finding says so at 40 % and not at 8 %."""
+    from types import SimpleNamespace
+
+    from exudyn_study.diagnose.rig_explain import make_finding
+    from exudyn_study.diagnose.rig_places import element_mu
+
+    m, f_t, zeta = 15.0, 12.4, 0.4
+    omega, w_t = 2 * np.pi * np.linspace(3.0, 60.0, 2000), 2 * np.pi * f_t
+
+    def peak(z):
+        return np.max(np.abs(element_mu(omega, m, frequency_hz=f_t, damping_ratio=z)) / (omega**2 * m))
+
+    assert peak(zeta) < 1.7 and peak(0.08) > 6.0
+    high = omega[omega >= 3 * w_t]
+    tmd = element_mu(high, m, frequency_hz=f_t, damping_ratio=zeta)
+    dashpot = element_mu(high, stiffness_n_per_m=m * w_t**2, damping_n_s_per_m=2 * zeta * m * w_t)
+    assert np.max(np.abs(tmd.imag / dashpot.imag - 1)) < 0.2
+    names, units = ("mass_kg", "frequency_hz", "damping_ratio"), ("kg", "Hz", "1")
+    h = SimpleNamespace(
+        physics="tuned_mass_damper", names=names, units=units, sensors=(), component="chassis", interface=None
+    )
+    fit = dict(train_before=1.0, train_after=0.1, holdout_before=1.0, holdout_after=0.1, metric="-")
+
+    def flags(z):
+        p, std = np.array([m, f_t, z]), np.array([0.1, 0.01, 0.001])
+        return make_finding(h, p, std, np.zeros(3, bool), (), (3.0, 60.0), False, "", fit).flags
+
+    assert any("no resonance of its own" in t for t in flags(zeta))
+    assert not any("no resonance" in t for t in flags(0.08))
