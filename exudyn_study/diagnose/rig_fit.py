@@ -371,7 +371,22 @@ def check_drift(problem: RigProblem, screening: Screening, fitted: list) -> None
 
 
 def candidates_meta(fitted, round_no: int, aic0: float) -> list:
-    """Return the JSON's ``candidates`` entries of a round's single fits (``aic0``: the model's own AIC)."""
+    """Return the JSON's ``candidates`` entries of a round's single fits.
+
+    Parameters
+    ----------
+    fitted : list of dict
+        Fit records (:func:`fit_one`; ``rejected`` set, ``drift`` and ``refined_from`` when made).
+    round_no : int
+        Index of the round (0 for the first).
+    aic0 : float
+        The current model's own AIC on the round's evaluator (each entry's ``aic`` is relative to it).
+
+    Returns
+    -------
+    list of dict
+        One entry per fit.
+    """
     return [
         {
             "round": round_no + 1,

@@ -413,7 +413,18 @@ class PlaceScorer:
         self.rss0 = float(self.rss(sens.h0[None])[0])
 
     def rss(self, h: np.ndarray) -> np.ndarray:
-        """Return the weighted log-magnitude residual of FRF sets ``h`` (g, n_s, n_f) over the recordings."""
+        """Return the weighted log-magnitude residual of FRF sets over the recordings.
+
+        Parameters
+        ----------
+        h : numpy.ndarray
+            FRF sets, shape (g, n_s, n_f).
+
+        Returns
+        -------
+        numpy.ndarray
+            Per set, the mean squared weighted log-magnitude error summed over the recordings, (g,).
+        """
         from exudyn_study.diagnose.rig_hypotheses import apply_output_frf
 
         total = np.zeros(h.shape[0])
