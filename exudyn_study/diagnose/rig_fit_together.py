@@ -509,7 +509,9 @@ def final_refit(
     """Refit the linear findings carried into the model together; judge them again.
 
     Each finding was fitted in its round against the model of that round; later findings can take
-    over part of its effect (a drive linkage's mass standing in for tank mounts that round 1 lacked).
+    over part of its effect (a drive linkage's mass standing in for tank mounts that round 1 lacked, or
+    for a sensor fault found in a later round: a single linear finding is refitted too when anything
+    was found after it).
     All parameters of the linear findings carried into the model (``records`` whose ``accepted`` entry
     is a linear hypothesis) are fitted together from their values (:class:`CompositeHypothesis` on the
     nominal model plus the other findings), on ``ev``; with ``hold_at_bound`` a parameter that ended at a
@@ -547,15 +549,15 @@ def final_refit(
         ``members`` (the records), ``values``, ``std``, ``at_bound`` (per member, its parameter
         order), ``flags`` (per member, sentences), ``rss_before``/``rss_after`` (training residual at
         the rounds' values and after the refit) and ``meta`` (with ``held_at_bound``: the parameters
-        held, and ``holdable``: those ``hold_at_bound`` holds); None with fewer than two linear
-        findings or when they cannot be combined.
+        held, and ``holdable``: those ``hold_at_bound`` holds); None without a linear finding, with one
+        that is the last finding (nothing found after it), or when they cannot be combined.
     """
     from exudyn_study.diagnose.rig_hypotheses import CompositeHypothesis
     from exudyn_study.physics.catalogue import entry
 
     members = [r for r in records if r["accepted"] is not None and r["h"].kind_linear]
-    if len(members) < 2:
-        return None
+    if not members or (len(members) == 1 and members[0] is records[-1]):
+        return None  # nothing found after a single linear finding changes what it was fitted against
     mine = {r["accepted"] for r in members}
 
     def build_rest():
