@@ -123,16 +123,30 @@ def _physics_flags(physics: str, params: dict) -> list:
     A tuned mass-damper damped by ``TMD_NO_RESONANCE_DAMPING`` or more makes no resonance (its dynamic
     stiffness peaks below twice the mass's own); well above its tuning its mass hardly moves and its
     damper dissipates as a dashpot to ground, so the generic local element near it may explain the same.
+    One tuned above the diagnosed band shows no resonance in the data: below its tuning its mass
+    follows its point, so in the band it is a point mass with an apparent value
+    ``m / (1 - (f / f_t)^2)`` (damping aside).
     """
+    out = []
     if physics == "tuned_mass_damper" and "damping_ratio" in params:
         zeta = params["damping_ratio"]["value"]
         if zeta >= TMD_NO_RESONANCE_DAMPING:
-            return [
+            out.append(
                 f"damping ratio {100 * zeta:.0f} %: no resonance of its own (quality factor below 1.7); well "
                 "above its tuning it dissipates like a dashpot to ground, so a dashpot near this place may "
                 "explain the data as well"
-            ]
-    return []
+            )
+    if physics == "tuned_mass_damper" and "frequency_hz" in params:
+        from exudyn_study.diagnose.rig_compare import BAND_HZ
+
+        f_t = params["frequency_hz"]["value"]
+        if f_t > BAND_HZ[1]:
+            out.append(
+                f"tuned to {f_t:.1f} Hz, above the diagnosed band ({BAND_HZ[1]:.0f} Hz): its resonance is "
+                "not in the data; in the band it acts as a point mass whose apparent value grows towards "
+                "the tuning, so a point mass near this place may explain the data as well"
+            )
+    return out
 
 
 def _determined(p: dict) -> bool:

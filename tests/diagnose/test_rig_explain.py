@@ -73,3 +73,32 @@ def test_a_tuned_mass_damper_without_a_resonance_is_flagged():
 
     assert any("no resonance of its own" in t for t in flags(zeta))
     assert not any("no resonance" in t for t in flags(0.08))
+
+
+def test_a_tuned_mass_damper_tuned_above_the_band_is_flagged():
+    """A 4.5 kg resonator tuned to 67 Hz, above the 60 Hz band: in the band its dynamic stiffness is that
+    of a point mass of ``m / (1 - (f / f_t)^2)`` within 2 % (damping 1 %), growing from 4.5 to 23 kg at
+    60 Hz, and its finding says so; tuned to 40 Hz it is not flagged for it."""
+    from types import SimpleNamespace
+
+    from exudyn_study.diagnose.rig_explain import make_finding
+    from exudyn_study.diagnose.rig_places import element_mu
+
+    m, f_t = 4.5, 67.0
+    f = np.linspace(3.0, 60.0, 200)
+    omega = 2 * np.pi * f
+    apparent = m / (1 - (f / f_t) ** 2)
+    mu = element_mu(omega, m, frequency_hz=f_t, damping_ratio=0.01)
+    np.testing.assert_allclose(np.abs(mu), omega**2 * apparent, rtol=0.02)
+    names, units = ("mass_kg", "frequency_hz", "damping_ratio"), ("kg", "Hz", "1")
+    h = SimpleNamespace(
+        physics="tuned_mass_damper", names=names, units=units, sensors=(), component="chassis", interface=None
+    )
+    fit = dict(train_before=1.0, train_after=0.1, holdout_before=1.0, holdout_after=0.1, metric="-")
+
+    def flags(tuning):
+        p, std = np.array([m, tuning, 0.01]), np.array([0.1, 0.01, 0.001])
+        return make_finding(h, p, std, np.zeros(3, bool), (), (3.0, 60.0), False, "", fit).flags
+
+    assert any("above the diagnosed band" in t for t in flags(f_t))
+    assert not any("above the diagnosed band" in t for t in flags(40.0))
