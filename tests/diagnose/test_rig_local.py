@@ -246,16 +246,10 @@ def test_solve3_equals_lapack_on_many_small_systems():
     np.testing.assert_allclose(solve3(a, b), np.linalg.solve(a, b[..., None])[..., 0], rtol=1e-9, atol=1e-12)
 
 
-def test_a_dashpot_between_the_screened_places_is_refitted_at_its_node(bodies):
-    """Truth: a 3000 N s/m dashpot to ground at the chassis mesh node farthest from both the sensors and
-    the structure screen's places (one node per 0.15 m cube), so the screen can only place it at a
-    neighbour, where the motion differs and the fitted damping with it. The place refinement screens the
-    fitted element at the mesh nodes around that place and refits at the best: the finding is within
-    0.06 m of the truth with its damping within 10 %."""
-    from exudyn_study.diagnose.rig import RigDiagnosisSettings, diagnose_rig
+def _chassis_nodes(bodies):
+    """The chassis's node positions (m), and the distance of each to the nearest sensor and screened place."""
     from exudyn_study.diagnose.rig_places import PLACE_SPACING_M, structure_places
     from exudyn_study.model import linearise
-    from exudyn_study.virtual_rig import Augment, Scenario, virtual_recording
 
     model = _model(bodies)
     linearise(model)  # assembled
@@ -265,17 +259,36 @@ def test_a_dashpot_between_the_screened_places_is_refitted_at_its_node(bodies):
     sensors = np.array([p for n, p in zip(places.names, places.positions, strict=True) if "#" not in n])
     d_sensor = np.min(np.linalg.norm(x[:, None] - sensors[None], axis=2), axis=1)
     d_place = np.min(np.linalg.norm(x[:, None] - places.positions[None], axis=2), axis=1)
-    node = int(np.argmax(np.where(d_sensor > 0.3, d_place, -1.0)))
-    assert d_place[node] > 0.05  # between the screened places
-    truth = {"stiffness_n_per_m": 0.0, "damping_n_s_per_m": 3000.0}
-    sc = Scenario("mini", "test", variant=1, damping="constant-2",
-                  augmentations=(Augment("ground_spring_damper", f"chassis#{node}", truth),)).with_seed(11)
+    return x, d_sensor, d_place
+
+
+def _diagnose_one(bodies, augment, seed):
+    """One finding's diagnosis of a mini-frame truth with ``augment`` (16 s white noise, test held out)."""
+    from exudyn_study.diagnose.rig import RigDiagnosisSettings, diagnose_rig
+    from exudyn_study.virtual_rig import Scenario, virtual_recording
+
+    sc = Scenario("mini", "test", variant=1, damping="constant-2", augmentations=(augment,)).with_seed(seed)
     train = virtual_recording(sc, "white-noise", 16.0, bodies=bodies, sensors=FRAME_SENSORS)
     hold = virtual_recording(sc, "test", 16.0, bodies=bodies, sensors=FRAME_SENSORS)
     st = RigDiagnosisSettings(train_duration_s=12.0, screen_duration_s=8.0, max_findings=1)
-    d = diagnose_rig(
+    return diagnose_rig(
         1, [train], [hold], damping="constant-2", bodies=bodies, sensors=FRAME_SENSORS, settings=st
     )
+
+
+def test_a_dashpot_between_the_screened_places_is_refitted_at_its_node(bodies):
+    """Truth: a 3000 N s/m dashpot to ground at the chassis mesh node farthest from both the sensors and
+    the structure screen's places (one node per 0.15 m cube), so the screen can only place it at a
+    neighbour, where the motion differs and the fitted damping with it. The place refinement screens the
+    fitted element at the mesh nodes around that place and refits at the best: the finding is within
+    0.06 m of the truth with its damping within 10 %."""
+    from exudyn_study.virtual_rig import Augment
+
+    x, d_sensor, d_place = _chassis_nodes(bodies)
+    node = int(np.argmax(np.where(d_sensor > 0.3, d_place, -1.0)))
+    assert d_place[node] > 0.05  # between the screened places
+    truth = {"stiffness_n_per_m": 0.0, "damping_n_s_per_m": 3000.0}
+    d = _diagnose_one(bodies, Augment("ground_spring_damper", f"chassis#{node}", truth), seed=11)
     f = d.findings[0]
     assert f.physics == "local_element"
     assert np.linalg.norm(np.asarray(f.location["position_m"]) - x[node]) < 0.06
@@ -288,26 +301,11 @@ def test_a_point_mass_away_from_the_sensors_is_named_a_point_mass(bodies):
     """Truth: 12 kg at the chassis mesh node farthest from the sensors, where no sensor-point candidate
     reaches: found by the structure screen and named an added mass (not a resonator, which can mimic a
     mass in the band), within 0.25 m of the truth and within 10 % of its mass."""
-    from exudyn_study.diagnose.rig import RigDiagnosisSettings, diagnose_rig
-    from exudyn_study.diagnose.rig_places import PLACE_SPACING_M, structure_places
-    from exudyn_study.model import linearise
-    from exudyn_study.virtual_rig import Augment, Scenario, virtual_recording
+    from exudyn_study.virtual_rig import Augment
 
-    model = _model(bodies)
-    linearise(model)  # assembled
-    places = structure_places(model, PLACE_SPACING_M)
-    handle = model.bodies["chassis"]
-    x = np.asarray(handle.body.node_positions_m, dtype=float) + np.asarray(handle.position_m, dtype=float)
-    sensors = np.array([p for n, p in zip(places.names, places.positions, strict=True) if "#" not in n])
-    node = int(np.argmax(np.min(np.linalg.norm(x[:, None] - sensors[None], axis=2), axis=1)))
-    sc = Scenario("mini", "test", variant=1, damping="constant-2",
-                  augmentations=(Augment("added_mass", f"chassis#{node}", {"mass_kg": 12.0}),)).with_seed(13)
-    train = virtual_recording(sc, "white-noise", 16.0, bodies=bodies, sensors=FRAME_SENSORS)
-    hold = virtual_recording(sc, "test", 16.0, bodies=bodies, sensors=FRAME_SENSORS)
-    st = RigDiagnosisSettings(train_duration_s=12.0, screen_duration_s=8.0, max_findings=1)
-    d = diagnose_rig(
-        1, [train], [hold], damping="constant-2", bodies=bodies, sensors=FRAME_SENSORS, settings=st
-    )
+    x, d_sensor, _ = _chassis_nodes(bodies)
+    node = int(np.argmax(d_sensor))
+    d = _diagnose_one(bodies, Augment("added_mass", f"chassis#{node}", {"mass_kg": 12.0}), seed=13)
     f = d.findings[0]
     assert f.physics == "added_mass"
     assert np.linalg.norm(np.asarray(f.location["position_m"]) - x[node]) < 0.25
