@@ -313,7 +313,7 @@ def _generic_if_better(problem: RigProblem, state: ModelState, screening, fits, 
 
     generic = fit_generic(problem, state, screening, RoundFits((), ()), meta, round_no)
     best_catalogue = max(f["improvement"] for f in fits.ok)
-    better = [f for f in generic.ok if f["improvement"] >= best_catalogue + GENERIC_MARGIN]
+    better = _clearly_better(generic.ok, best_catalogue)
     if not better:
         return replace(fits, fitted=fits.fitted + generic.fitted)
     problem.say(
@@ -325,6 +325,11 @@ def _generic_if_better(problem: RigProblem, state: ModelState, screening, fits, 
 
 #: the generic element replaces catalogue fits if it removes this much more of the residual
 GENERIC_MARGIN = 0.05
+
+
+def _clearly_better(generic_fits, best_catalogue: float) -> list:
+    """Return the generic element's fits that explain :data:`GENERIC_MARGIN` more than ``best_catalogue``."""
+    return [f for f in generic_fits if f["improvement"] >= best_catalogue + GENERIC_MARGIN]
 
 
 def _why_none(problem: RigProblem, screening, fits) -> str:
@@ -355,7 +360,7 @@ def _catalogue_first(problem: RigProblem, fits):
     if not generic or not catalogue:
         return fits
     best_catalogue = max(catalogue, key=lambda f: f["improvement"])
-    kept = [f for f in generic if f["improvement"] >= best_catalogue["improvement"] + GENERIC_MARGIN]
+    kept = _clearly_better(generic, best_catalogue["improvement"])
     if len(kept) < len(generic):
         problem.say(
             f"{best_catalogue['h'].label} explains {100 * best_catalogue['improvement']:.0f} %, within "

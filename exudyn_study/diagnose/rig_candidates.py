@@ -1518,11 +1518,16 @@ def generic_local_elements(ctx: CandidateContext, n_places: int = 6) -> list:
     """
     seen = [np.asarray(ctx.markers[loc][1], dtype=float) for loc in point_places(ctx, n_places)]
     out = _at_best_places(ctx, "local_element", list(seen))
-    done = {loc for name, loc in ctx.done if name in ("local_element", "ground_spring_damper")}
+    done = _generic_done(ctx)
     out += [h for h in _ground_elements_at(ctx, point_places(ctx, n_places), []) if h.location not in done]
     for h in out:
         h.screen_grid = GENERIC_SCREEN_GRID
     return out
+
+
+def _generic_done(ctx: CandidateContext) -> set:
+    """Return the places where the generic element (or its catalogue entry) is already a finding."""
+    return {loc for name, loc in ctx.done if name in ("local_element", "ground_spring_damper")}
 
 
 #: the generic element's screening grid: (stiffness N/m, damping N s/m)
@@ -1622,7 +1627,7 @@ def _local_element_screened(ctx: CandidateContext):
         h.screen_grid = GENERIC_SCREEN_GRID
         h.place = point_of(h, ctx.markers)
         h.closest = closest
-    done = {loc for name, loc in ctx.done if name in ("local_element", "ground_spring_damper")}
+    done = _generic_done(ctx)
     return [h for h in out if h.location not in done]
 
 

@@ -174,6 +174,24 @@ class LocalSensitivity:
         self.sensor_left = lin.sensor_map[list(rows)] @ self.null.T @ self.left  # (n_s, 2n)
         self.h0 = frf_linear(lin, self.f)[list(rows), 0, :]
 
+    @classmethod
+    def of_evaluator(cls, lin, ev_spectral) -> LocalSensitivity:
+        """Return the sensitivity at a spectral evaluator's frequencies and recorded channels.
+
+        Parameters
+        ----------
+        lin : LinearSystem
+            The current model's linearisation.
+        ev_spectral : SpectralEvaluator
+            Its frequencies ``f``; the channels of its first recording are the rows.
+
+        Returns
+        -------
+        LocalSensitivity
+        """
+        names = list(lin.sensor_names)
+        return cls(lin, ev_spectral.f, [names.index(c) for c in ev_spectral.recs[0].channels])
+
     def at(self, place_map: np.ndarray) -> tuple:
         """Return what a place contributes independently of the element: ``(U^T D^-1 U, S N^T D^-1 U, c)``.
 
@@ -187,7 +205,23 @@ class LocalSensitivity:
         tuple of numpy.ndarray
             ``(U^T D^-1 U, S N^T D^-1 U, c)``: shapes (n_f, 3, 3), (n_f, n_s, 3) and (n_f, 3).
         """
-        return self.at_reduced(self.null @ place_map.T, place_map @ self.drive)
+        return self.at_reduced(*self.reduced(place_map))
+
+    def reduced(self, place_map: np.ndarray) -> tuple:
+        """Return what :meth:`at_reduced` takes of a place: ``(N P^T, P r)``.
+
+        Parameters
+        ----------
+        place_map : numpy.ndarray
+            The place's displacement map onto the full coordinates, shape (3, n_q).
+
+        Returns
+        -------
+        tuple of numpy.ndarray
+            The place's map on the independent coordinates, shape (n, 3), and its displacement per
+            unit drive, shape (3,).
+        """
+        return self.null @ place_map.T, place_map @ self.drive
 
     def at_reduced(self, u: np.ndarray, drive_motion: np.ndarray) -> tuple:
         """Return what :meth:`at` returns, from the place's map on the independent coordinates.
@@ -346,19 +380,10 @@ def screen_places(lin, places: Places, ev_spectral, gains=None, elements=None, p
         ``share`` (of the current residual it removes); best first.
     """
     elements = elements or SCREEN_ELEMENTS
-    rec = ev_spectral.recs[0]
-    rows = [list(lin.sensor_names).index(c) for c in rec.channels]
-    sens = LocalSensitivity(lin, ev_spectral.f, rows)
-    scorer = PlaceScorer(
-        sens,
-        [np.asarray(x) for x in ev_spectral.log_h],
-        [np.asarray(w) for w in ev_spectral.weight],
-        [tuple(r.channels) for r in ev_spectral.recs],
-        gains,
-        elements,
-    )
+    sens = LocalSensitivity.of_evaluator(lin, ev_spectral)
+    scorer = PlaceScorer.of_evaluator(sens, ev_spectral, gains, elements)
     # what each place needs: its map on the independent coordinates and its motion per unit drive
-    reduced = [(sens.null @ m.T, m @ sens.drive) for m in places.maps]
+    reduced = [sens.reduced(m) for m in places.maps]
     parallel = pool is not None and pool.parallel
     n_chunks = (pool.workers or SCHEDULER_CHUNKS) if parallel else 1
     bounds = np.linspace(0, len(reduced), n_chunks + 1).astype(int)
@@ -411,6 +436,34 @@ class PlaceScorer:
         self.kinds = list(elements)
         self.mus = {k: np.array([element_mu(sens.omega, **v) for v in grid]) for k, grid in elements.items()}
         self.rss0 = float(self.rss(sens.h0[None])[0])
+
+    @classmethod
+    def of_evaluator(cls, sens, ev_spectral, gains, elements) -> PlaceScorer:
+        """Return the scorer against a spectral evaluator's measured transmissibilities.
+
+        Parameters
+        ----------
+        sens : LocalSensitivity
+            The current model's nominal FRFs at the evaluator's frequencies.
+        ev_spectral : SpectralEvaluator
+            Its ``log_h``, ``weight`` and recordings (their channels).
+        gains : numpy.ndarray or OutputChain or None
+            The output gains found so far.
+        elements : dict
+            Kind -> parameter sets.
+
+        Returns
+        -------
+        PlaceScorer
+        """
+        return cls(
+            sens,
+            [np.asarray(x) for x in ev_spectral.log_h],
+            [np.asarray(w) for w in ev_spectral.weight],
+            [tuple(r.channels) for r in ev_spectral.recs],
+            gains,
+            elements,
+        )
 
     def rss(self, h: np.ndarray) -> np.ndarray:
         """Return the weighted log-magnitude residual of FRF sets over the recordings.

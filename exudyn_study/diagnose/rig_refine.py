@@ -109,8 +109,7 @@ def refine_places(problem, state, screening, fits, meta: dict, round_no: int):
     from exudyn_study.diagnose.rig_places import LocalSensitivity, PlaceScorer
 
     ev = problem.ev_spectral
-    rows = [list(state.lin.sensor_names).index(c) for c in ev.recs[0].channels]
-    sens = LocalSensitivity(state.lin, ev.f, rows)
+    sens = LocalSensitivity.of_evaluator(state.lin, ev)
     ok, fitted = list(fits.ok), list(fits.fitted)
     for f in point:
         h = f["h"]
@@ -118,20 +117,13 @@ def refine_places(problem, state, screening, fits, meta: dict, round_no: int):
         if here is None:
             continue
         values = {n: float(v) for n, v in zip(h.names, f["p"], strict=True)}
-        scorer = PlaceScorer(
-            sens,
-            [np.asarray(x) for x in ev.log_h],
-            [np.asarray(w) for w in ev.weight],
-            [tuple(r.channels) for r in ev.recs],
-            state.gains,
-            {h.physics: [values]},
-        )
+        scorer = PlaceScorer.of_evaluator(sens, ev, state.gains, {h.physics: [values]})
         _, p_here = place_where(screening.ctx, h.location)
         nodes = nodes_near(state.model, here)
         maps = [p_here] + [place_where(screening.ctx, name)[1] for name, _ in nodes]
         shares = [
             (best[0][2] if best else -np.inf)
-            for best in scorer.score([(sens.null @ m.T, m @ sens.drive) for m in maps])
+            for best in scorer.score([sens.reduced(m) for m in maps])
         ]
         k = int(np.argmax(shares[1:])) + 1 if nodes else 0
         left_here, left_best = 1.0 - shares[0], 1.0 - shares[k]

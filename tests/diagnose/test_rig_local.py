@@ -153,11 +153,7 @@ def test_the_structure_screen_finds_a_tuned_mass_damper_by_its_resonance(bodies)
     model = _model(bodies)
     lin = linearise(model)
     places = structure_places(model, spacing_m=0.2)
-    sensor_pos = np.array([places.positions[i] for i, n in enumerate(places.names) if "#" not in n])
-    # the mesh node farthest from every sensor: a place no sensor-point candidate reaches
-    far = [np.min(np.linalg.norm(sensor_pos - p, axis=1)) if "#" in n else 0.0
-           for n, p in zip(places.names, places.positions, strict=True)]
-    k = int(np.argmax(far))
+    k = _farthest_place(places)  # a place no sensor-point candidate reaches
     tmd = {"mass_kg": 6.0, "frequency_hz": 23.0, "damping_ratio": 0.07}
     truth = PointResonatorHypothesis(places.names[k], lin, places.maps[k], dict(tmd))
     f = np.linspace(3.0, 60.0, 229)
@@ -206,10 +202,7 @@ def test_the_generic_element_competes_only_where_the_screen_finds_a_local_stiffn
     markers = {s: location_point(model, s) for s in model.sensors}  # before assembly, as the diagnosis
     lin = linearise(model)
     places = structure_places(model, spacing_m=0.2)
-    sensor_pos = np.array([places.positions[i] for i, n in enumerate(places.names) if "#" not in n])
-    far = [np.min(np.linalg.norm(sensor_pos - p, axis=1)) if "#" in n else 0.0
-           for n, p in zip(places.names, places.positions, strict=True)]
-    k = int(np.argmax(far))
+    k = _farthest_place(places)
     name, p_map = places.names[k], places.maps[k]
     if "damping_n_s_per_m" in truth:
         h_truth = GroundElementHypothesis(name, lin, p_map, dict(truth))
@@ -244,6 +237,14 @@ def test_solve3_equals_lapack_on_many_small_systems():
     a = rng.normal(size=(4, 50, 3, 3)) + 1j * rng.normal(size=(4, 50, 3, 3))
     b = rng.normal(size=(4, 50, 3)) + 1j * rng.normal(size=(4, 50, 3))
     np.testing.assert_allclose(solve3(a, b), np.linalg.solve(a, b[..., None])[..., 0], rtol=1e-9, atol=1e-12)
+
+
+def _farthest_place(places) -> int:
+    """Index of the mesh-node place farthest from every sensor's place."""
+    sensor_pos = np.array([places.positions[i] for i, n in enumerate(places.names) if "#" not in n])
+    far = [np.min(np.linalg.norm(sensor_pos - p, axis=1)) if "#" in n else 0.0
+           for n, p in zip(places.names, places.positions, strict=True)]
+    return int(np.argmax(far))
 
 
 def _chassis_nodes(bodies):
