@@ -611,7 +611,33 @@ class SloshingHypothesis(Hypothesis):
         return project(m, c, k, self.base)
 
 
-class AddedMassHypothesis(Hypothesis):
+class _PointMatrices:
+    """A point candidate pickled without the dense matrices it derives from its displacement map.
+
+    A point candidate's system adds ``P^T P`` (``P`` the point's (3, n_q) displacement map) to the
+    nominal matrices; that product, and a resonator's padded matrices, are (n_q, n_q) each and the
+    same for every parameter set. A worker receiving the candidate (a screen or a fit on the
+    evaluation pool) rebuilds them from ``P`` and the nominal system it receives once for all
+    candidates, so a candidate sent costs its (3, n_q) map, not several dense matrices.
+    """
+
+    _derived: tuple = ()
+
+    def _derive(self) -> None:
+        raise NotImplementedError
+
+    def __getstate__(self):
+        state = dict(self.__dict__)
+        for name in self._derived:
+            state.pop(name, None)
+        return state
+
+    def __setstate__(self, state):
+        self.__dict__.update(state)
+        self._derive()
+
+
+class AddedMassHypothesis(_PointMatrices, Hypothesis):
     """A rigid point mass at a marker: ``M0 + m P^T P``.
 
     Parameters
@@ -650,7 +676,13 @@ class AddedMassHypothesis(Hypothesis):
             **where,
         )
         self.nominal = nominal
-        self.ptp = displacement_map.T @ displacement_map
+        self.p_map = np.asarray(displacement_map, dtype=float)
+        self._derive()
+
+    _derived = ("ptp",)
+
+    def _derive(self) -> None:
+        self.ptp = self.p_map.T @ self.p_map
 
     def system(self, p):
         """Return the candidate's linear system at parameters ``p``.
@@ -673,7 +705,7 @@ class AddedMassHypothesis(Hypothesis):
         )
 
 
-class PointResonatorHypothesis(Hypothesis):
+class PointResonatorHypothesis(_PointMatrices, Hypothesis):
     """A mass ``m`` on an isotropic spring-damper (``k = m (2 pi f)^2``, ``c = 2 zeta m 2 pi f``) at a point.
 
     The resonator's three coordinates ``s`` are appended to the nominal ones: ``M = diag(M0, m I)``,
@@ -701,8 +733,15 @@ class PointResonatorHypothesis(Hypothesis):
 
         e = entry("tuned_mass_damper")
         super().__init__("tuned_mass_damper", location, *_entry_fields(e, start), **where)
+        self.nominal = nominal
+        self.p_map = np.asarray(displacement_map, dtype=float)
+        self._derive()
+
+    _derived = ("couple", "mass_block", "base")
+
+    def _derive(self) -> None:
+        nominal, p_map = self.nominal, self.p_map
         n_q = nominal.full_mass.shape[0]
-        p_map = np.asarray(displacement_map, dtype=float)
         self.couple = np.block([[p_map.T @ p_map, -p_map.T], [-p_map, np.eye(3)]])
         self.mass_block = np.zeros((n_q + 3, n_q + 3))
         self.mass_block[n_q:, n_q:] = np.eye(3)
@@ -751,7 +790,7 @@ class PointResonatorHypothesis(Hypothesis):
         )
 
 
-class GroundElementHypothesis(Hypothesis):
+class GroundElementHypothesis(_PointMatrices, Hypothesis):
     """A local dynamic stiffness to ground at a point: ``K0 + k P^T P``, ``C0 + c P^T P`` (isotropic).
 
     The diagnosis's generic local element (physics ``'local_element'``), carried into the model as
@@ -783,8 +822,13 @@ class GroundElementHypothesis(Hypothesis):
             **where,
         )
         self.nominal = nominal
-        p_map = np.asarray(displacement_map, dtype=float)
-        self.ptp = p_map.T @ p_map
+        self.p_map = np.asarray(displacement_map, dtype=float)
+        self._derive()
+
+    _derived = ("ptp",)
+
+    def _derive(self) -> None:
+        self.ptp = self.p_map.T @ self.p_map
 
     def carried(self, p) -> tuple:
         """Return the ``ground_spring_damper`` entry at this place with the fitted values.

@@ -9,6 +9,7 @@ each on a short record (:func:`screen_score`); the result is a
 from __future__ import annotations
 
 import math
+from dataclasses import dataclass
 
 import numpy as np
 
@@ -116,6 +117,79 @@ def screen_score(h: Hypothesis, ev: Evaluator, channels, r0: np.ndarray, nfev: i
                 if value < best:
                     best, h.start = value, v
     return max(0.0, 1.0 - best / rss0)
+
+
+@dataclass(frozen=True)
+class CandidateScorer:
+    """What :func:`screen_score` needs for every candidate of a screen, sent to the workers once.
+
+    The candidates share the current model's linearisation (one copy in the pickle); a point
+    candidate travels without its derived dense matrices
+    (:class:`~exudyn_study.diagnose.rig_hypotheses.AddedMassHypothesis` and its kin rebuild them).
+
+    Attributes
+    ----------
+    hyps : tuple of Hypothesis
+        The screen's candidates.
+    ev : Evaluator or SpectralEvaluator
+        The screening evaluator.
+    ev_gains : Evaluator
+        The evaluator of the candidates carried as output gains (the time histories also when the
+        others are screened on log transmissibilities).
+    channels : tuple of str
+        The simulated channels, in row order.
+    r0, r0_gains : numpy.ndarray
+        The current model's residual on ``ev`` and on ``ev_gains``.
+    nfev : int
+        Residual evaluations of a short screening fit.
+    """
+
+    hyps: tuple
+    ev: object
+    ev_gains: object
+    channels: tuple
+    r0: np.ndarray
+    r0_gains: np.ndarray
+    nfev: int
+
+    def score(self, i: int) -> tuple:
+        """Return ``(score, start)`` of candidate ``i``.
+
+        ``score`` is :func:`screen_score`'s share, ``start`` the candidate's best screening value (the
+        start of its fit).
+        """
+        h = self.hyps[i]
+        gains = h.carry == "gains"
+        score = screen_score(
+            h,
+            self.ev_gains if gains else self.ev,
+            self.channels,
+            self.r0_gains if gains else self.r0,
+            self.nfev,
+        )
+        return score, np.array(h.start, dtype=float)
+
+
+def score_candidate_task(scorer: CandidateScorer, i: int) -> tuple:
+    """:meth:`CandidateScorer.score` in a worker (BLAS on one thread).
+
+    Parameters
+    ----------
+    scorer : CandidateScorer
+        The screen's candidates and evaluators.
+    i : int
+        Index of the candidate.
+
+    Returns
+    -------
+    tuple
+        As :meth:`CandidateScorer.score` (the worker's copy of the candidate is not the caller's: the
+        caller sets the start).
+    """
+    from exudyn_study.infra.blas import single_threaded_blas
+
+    with single_threaded_blas():
+        return scorer.score(i)
 
 
 def candidate_context(
@@ -338,12 +412,23 @@ def screen(
     r0_screen = ev_scr.residual_vector(state.lin, state.gains)
     # acquisition faults on the time histories in any round (Screening.judged_on)
     r0_time_screen = problem.ev_screen.residual_vector(state.lin, state.gains) if spectral else r0_screen
-    scores = [
-        screen_score(h, problem.ev_screen, problem.channels, r0_time_screen, st.screen_nfev)
-        if spectral and h.carry == "gains"
-        else screen_score(h, ev_scr, problem.channels, r0_screen, st.screen_nfev)
-        for h in hyps
-    ]
+    scored = CandidateScorer(
+        hyps=tuple(hyps),
+        ev=ev_scr,
+        ev_gains=problem.ev_screen if spectral else ev_scr,
+        channels=tuple(problem.channels),
+        r0=r0_screen,
+        r0_gains=r0_time_screen,
+        nfev=st.screen_nfev,
+    )
+    results = (
+        problem.pool.map_shared(score_candidate_task, scored, list(range(len(hyps))))
+        if problem.pool is not None and problem.pool.parallel
+        else [scored.score(i) for i in range(len(hyps))]
+    )
+    scores = [score for score, _ in results]
+    for h, (_, start) in zip(hyps, results, strict=True):
+        h.start = start
     order = [
         i
         for i in np.argsort(scores)[::-1]

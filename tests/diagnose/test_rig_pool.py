@@ -213,3 +213,55 @@ def test_the_place_screen_on_two_workers_is_the_serial_screen(bodies):
     np.testing.assert_allclose([b["share"] for b in pooled], [b["share"] for b in serial], rtol=0, atol=1e-12)
     best_mass = next(b for b in serial if b["kind"] == "added_mass")
     assert best_mass["place"] == places.names[k] and best_mass["share"] > 0.99
+
+
+def test_the_candidate_screen_on_two_workers_is_the_serial_screen(bodies):
+    """A soft rear support recorded; a screen of point candidates (a mass, a resonator, a spring-damper to
+    ground at three mesh nodes) and the support's own candidate on two worker processes: the serial scores
+    and screening starts to 1e-12, the support ranked first. A point candidate is sent without its dense
+    matrices (its pickle smaller than one n_q x n_q matrix) and rebuilds the same system."""
+    import pickle
+
+    from exudyn_study.diagnose.rig_candidates import point_hypothesis
+    from exudyn_study.diagnose.rig_places import structure_places
+    from exudyn_study.diagnose.rig_pool import evaluation_pool
+    from exudyn_study.diagnose.rig_screen import CandidateScorer, score_candidate_task
+    from exudyn_study.model import build_model_from_bodies, linearise
+
+    support, ev, channels = _rear_support(bodies)
+    model = build_model_from_bodies(bodies, 1, damping="constant-2", sensors=FRAME_SENSORS, exudyn_mesh="used")
+    lin = linearise(model)
+    places = structure_places(model, spacing_m=0.2)
+    picks = np.linspace(0, len(places.names) - 1, 3).astype(int)
+    values = {
+        "added_mass": {"mass_kg": 2.0},
+        "tuned_mass_damper": {"mass_kg": 1.0, "frequency_hz": 20.0, "damping_ratio": 0.05},
+        "local_element": {"stiffness_n_per_m": 1e5, "damping_n_s_per_m": 50.0},
+    }
+    points = [
+        point_hypothesis(kind, places.names[k], lin, places.maps[k], v) for k in picks for kind, v in values.items()
+    ]
+    for h in points:
+        copy = pickle.loads(pickle.dumps(h))
+        assert len(pickle.dumps(h)) - len(pickle.dumps(lin)) < lin.full_mass.nbytes
+        p = h.start
+        a, b = h.system(p), copy.system(p)
+        np.testing.assert_array_equal(a.mass, b.mass)
+        np.testing.assert_array_equal(a.stiffness, b.stiffness)
+        np.testing.assert_array_equal(a.damping, b.damping)
+    hyps = (support, *points)
+    r0 = ev.residual_vector(lin, None)
+    scorer = CandidateScorer(
+        hyps=hyps, ev=ev, ev_gains=ev, channels=tuple(channels), r0=r0, r0_gains=r0, nfev=4
+    )
+    starts = [h.start.copy() for h in hyps]
+    serial = [scorer.score(i) for i in range(len(hyps))]
+    for h, s in zip(hyps, starts, strict=True):
+        h.start = s
+    with evaluation_pool(2) as pool:
+        pooled = pool.map_shared(score_candidate_task, scorer, list(range(len(hyps))))
+        assert not pool._contexts
+    np.testing.assert_allclose([s for s, _ in pooled], [s for s, _ in serial], rtol=0, atol=1e-12)
+    for (_, a), (_, b) in zip(pooled, serial, strict=True):
+        np.testing.assert_allclose(a, b, rtol=1e-12)
+    assert int(np.argmax([s for s, _ in serial])) == 0 and serial[0][0] > 0.5
