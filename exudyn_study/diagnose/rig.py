@@ -75,7 +75,7 @@ from exudyn_study.diagnose.rig_hypotheses import OutputChain
 from exudyn_study.diagnose.rig_locate import distortion_shares, is_level_dependent, level_pair, locate
 from exudyn_study.diagnose.rig_pool import evaluation_pool
 from exudyn_study.diagnose.rig_prove import channel_verdict, prove, relative_damage
-from exudyn_study.diagnose.rig_refine import refine_places
+from exudyn_study.diagnose.rig_refine import refine_places, simpler_entries
 from exudyn_study.diagnose.rig_screen import screen
 from exudyn_study.diagnose.rig_settings import RigDiagnosisSettings
 from exudyn_study.diagnose.rig_state import (
@@ -402,6 +402,8 @@ def _round(
         stages.lap("final_refit")
         fits = fit_nonlinear(problem, state, screening, fits, meta, round_no)
         stages.lap("fit_nonlinear")
+    fits = simpler_entries(problem, state, screening, fits, meta, round_no)
+    stages.lap("simpler_entries")
     if not fits.ok:  # outside the catalogue: the generic local element, the last candidate
         fits = fit_generic(problem, state, screening, fits, meta, round_no)
         stages.lap("fit_generic")

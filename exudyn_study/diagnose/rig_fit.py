@@ -28,7 +28,7 @@ from exudyn_study.diagnose.rig_evaluate import (
     response_ratio,
     system_residual,
 )
-from exudyn_study.diagnose.rig_screen import hypotheses_of, screen_score
+from exudyn_study.diagnose.rig_screen import hypotheses_of, score_candidates, screen_score
 from exudyn_study.diagnose.rig_state import ModelState, RigProblem, RoundFits, Screening
 
 
@@ -376,7 +376,8 @@ def candidates_meta(fitted, round_no: int, aic0: float) -> list:
     Parameters
     ----------
     fitted : list of dict
-        Fit records (:func:`fit_one`; ``rejected`` set, ``drift`` and ``refined_from`` when made).
+        Fit records (:func:`fit_one`; ``rejected`` set, ``drift``, ``refined_from`` and ``simpler_than``
+        when made).
     round_no : int
         Index of the round (0 for the first).
     aic0 : float
@@ -402,6 +403,7 @@ def candidates_meta(fitted, round_no: int, aic0: float) -> list:
             "parameters": dict(zip(f["h"].names, np.round(f["p"], 6).tolist(), strict=True)),
             **({"per_recording": f["drift"]["per_recording"]} if f.get("drift") else {}),
             **({"refined_from": f["refined_from"]} if f.get("refined_from") else {}),
+            **({"simpler_than": f["simpler_than"]} if f.get("simpler_than") else {}),
         }
         for f in fitted
     ]
@@ -597,7 +599,7 @@ def fit_generic(
     ev_scr = problem.ev_spectral if screening.spectral else problem.ev_screen
     r0 = ev_scr.residual_vector(state.lin, state.gains)
     problem.say(f"screening the generic local element at {len(hyps)} places (no catalogue candidate fits)")
-    scores = [screen_score(h, ev_scr, problem.channels, r0, st.screen_nfev) for h in hyps]
+    scores = score_candidates(problem, hyps, ev_scr, r0)
     ranked = sorted(zip(screening.scores, screening.hyps, strict=True), key=lambda t: -t[0])
     closest = tuple((h.label, float(score)) for score, h in ranked[:3])
     for h in hyps:

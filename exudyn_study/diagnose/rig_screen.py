@@ -170,6 +170,50 @@ class CandidateScorer:
         return score, np.array(h.start, dtype=float)
 
 
+def score_candidates(problem: RigProblem, hyps, ev, r0, ev_gains=None, r0_gains=None) -> list:
+    """Score each candidate by :func:`screen_score` (on the pool's workers when it has them).
+
+    Each candidate's ``start`` is set to its best screening value (the start of its fit), as the
+    serial screen leaves it.
+
+    Parameters
+    ----------
+    problem : RigProblem
+        The settings, channels and pool.
+    hyps : sequence of Hypothesis
+        The candidates.
+    ev : Evaluator or SpectralEvaluator
+        The screening evaluator.
+    r0 : numpy.ndarray
+        The current model's residual on ``ev``.
+    ev_gains, r0_gains : optional
+        Evaluator and residual of the candidates carried as output gains (default ``ev``, ``r0``).
+
+    Returns
+    -------
+    list of float
+        The screening shares, in the order of ``hyps``.
+    """
+    scorer = CandidateScorer(
+        hyps=tuple(hyps),
+        ev=ev,
+        ev_gains=ev if ev_gains is None else ev_gains,
+        channels=tuple(problem.channels),
+        r0=r0,
+        r0_gains=r0 if r0_gains is None else r0_gains,
+        nfev=problem.settings.screen_nfev,
+    )
+    items = list(range(len(scorer.hyps)))
+    pool = problem.pool
+    if pool is not None and pool.parallel and len(items) > 1:
+        results = pool.map_shared(score_candidate_task, scorer, items)
+    else:
+        results = [scorer.score(i) for i in items]
+    for h, (_, start) in zip(scorer.hyps, results, strict=True):
+        h.start = start
+    return [score for score, _ in results]
+
+
 def score_candidate_task(scorer: CandidateScorer, i: int) -> tuple:
     """:meth:`CandidateScorer.score` in a worker (BLAS on one thread).
 
@@ -412,23 +456,9 @@ def screen(
     r0_screen = ev_scr.residual_vector(state.lin, state.gains)
     # acquisition faults on the time histories in any round (Screening.judged_on)
     r0_time_screen = problem.ev_screen.residual_vector(state.lin, state.gains) if spectral else r0_screen
-    scored = CandidateScorer(
-        hyps=tuple(hyps),
-        ev=ev_scr,
-        ev_gains=problem.ev_screen if spectral else ev_scr,
-        channels=tuple(problem.channels),
-        r0=r0_screen,
-        r0_gains=r0_time_screen,
-        nfev=st.screen_nfev,
+    scores = score_candidates(
+        problem, hyps, ev_scr, r0_screen, problem.ev_screen if spectral else ev_scr, r0_time_screen
     )
-    results = (
-        problem.pool.map_shared(score_candidate_task, scored, list(range(len(hyps))))
-        if problem.pool is not None and problem.pool.parallel
-        else [scored.score(i) for i in range(len(hyps))]
-    )
-    scores = [score for score, _ in results]
-    for h, (_, start) in zip(hyps, results, strict=True):
-        h.start = start
     order = [
         i
         for i in np.argsort(scores)[::-1]

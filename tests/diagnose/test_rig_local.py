@@ -311,3 +311,64 @@ def test_a_point_mass_away_from_the_sensors_is_named_a_point_mass(bodies):
     assert f.physics == "added_mass"
     assert np.linalg.norm(np.asarray(f.location["position_m"]) - x[node]) < 0.25
     assert f.parameters["mass_kg"]["value"] == pytest.approx(12.0, rel=0.1)
+
+
+@pytest.mark.parametrize(
+    ("values", "kind", "band_hz", "tolerance"),
+    [
+        # tuned above the band: a point mass in its lower part
+        ({"mass_kg": 5.0, "frequency_hz": 80.0, "damping_ratio": 0.05}, "added_mass", (3.0, 10.0), 0.03),
+        # so damped it has no resonance: a dashpot to ground well above its tuning
+        ({"mass_kg": 5.0, "frequency_hz": 3.0, "damping_ratio": 0.5}, "local_element", (10.0, 60.0), 0.1),
+        # resonating in the band: nothing simpler
+        ({"mass_kg": 5.0, "frequency_hz": 30.0, "damping_ratio": 0.1}, None, None, None),
+    ],
+)
+def test_a_resonator_nests_the_simpler_element_it_acts_as_in_the_band(values, kind, band_hz, tolerance):
+    """The nested entry's dynamic stiffness (``omega^2 m``; ``-k - i omega c``) is the resonator's, condensed
+    exactly, within a few per cent where the resonator's own dynamics do not show; a point mass has the
+    resonator's apparent mass ``m / (1 - (f / f_t)^2)`` at the band's geometric middle."""
+    import math
+
+    from exudyn_study.diagnose.rig_places import element_mu
+    from exudyn_study.diagnose.rig_refine import nested_point_entry
+
+    nested = nested_point_entry(values, (3.0, 60.0))
+    if kind is None:
+        assert nested is None
+        return
+    assert nested[0] == kind
+    f = np.geomspace(*band_hz, 40)
+    omega = 2 * np.pi * f
+    exact = element_mu(omega, **values)
+    simple = element_mu(omega, **nested[1])
+    assert np.max(np.abs(simple - exact) / np.abs(exact)) < tolerance
+    if kind == "added_mass":
+        f_mid = math.sqrt(3.0 * 60.0)
+        assert nested[1]["mass_kg"] == pytest.approx(5.0 / (1 - (f_mid / 80.0) ** 2), rel=1e-12)
+
+
+def test_a_resonator_standing_in_for_a_point_mass_is_named_the_point_mass(bodies, monkeypatch):
+    """Truth: 12 kg at the chassis node farthest from the sensors. The point mass's own candidates are kept
+    out of the screen, so a tuned mass-damper tuned above the band stands in for it; the diagnosis fits the
+    point mass the resonator nests, names it (within 0.25 m and 10 % of the truth) and records which
+    resonator it replaced."""
+    from dataclasses import replace
+
+    from exudyn_study.diagnose import rig_candidates
+    from exudyn_study.virtual_rig import Augment
+
+    monkeypatch.setitem(
+        rig_candidates.RIG_CANDIDATES,
+        "added_mass",
+        replace(rig_candidates.RIG_CANDIDATES["added_mass"], factory=lambda ctx: []),
+    )
+    x, d_sensor, _ = _chassis_nodes(bodies)
+    node = int(np.argmax(d_sensor))
+    d = _diagnose_one(bodies, Augment("added_mass", f"chassis#{node}", {"mass_kg": 12.0}), seed=13)
+    replaced = [c for c in d.metadata["candidates"] if c.get("simpler_than", "").startswith("tuned_mass_damper")]
+    assert replaced, "no resonator fitted above the band: the test no longer stands for the rule"
+    f = d.findings[0]
+    assert f.physics == "added_mass"
+    assert np.linalg.norm(np.asarray(f.location["position_m"]) - x[node]) < 0.25
+    assert f.parameters["mass_kg"]["value"] == pytest.approx(12.0, rel=0.1)
