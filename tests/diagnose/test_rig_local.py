@@ -366,9 +366,37 @@ def test_a_resonator_standing_in_for_a_point_mass_is_named_the_point_mass(bodies
     x, d_sensor, _ = _chassis_nodes(bodies)
     node = int(np.argmax(d_sensor))
     d = _diagnose_one(bodies, Augment("added_mass", f"chassis#{node}", {"mass_kg": 12.0}), seed=13)
-    replaced = [c for c in d.metadata["candidates"] if c.get("simpler_than", "").startswith("tuned_mass_damper")]
+    replaced = [c for c in d.metadata["candidates"] if c.get("simpler_than", "").startswith("tuned_mass")]
     assert replaced, "no resonator fitted above the band: the test no longer stands for the rule"
     f = d.findings[0]
     assert f.physics == "added_mass"
     assert np.linalg.norm(np.asarray(f.location["position_m"]) - x[node]) < 0.25
     assert f.parameters["mass_kg"]["value"] == pytest.approx(12.0, rel=0.1)
+
+
+def test_a_resonator_standing_in_for_a_dashpot_is_named_the_dashpot(bodies, monkeypatch):
+    """Truth: a 3000 N s/m dashpot to ground at a chassis node away from the sensors and the screened places.
+    The generic element's own candidates are kept out, so heavily damped tuned mass-dampers (no resonance of
+    their own) stand in for it; the diagnosis fits the spring-damper to ground they nest, refines its place
+    and names it outside the catalogue: within 0.06 m of the node, its damping within 10 %."""
+    from dataclasses import replace
+
+    from exudyn_study.diagnose import rig_candidates
+    from exudyn_study.virtual_rig import Augment
+
+    monkeypatch.setitem(
+        rig_candidates.RIG_CANDIDATES,
+        "ground_spring_damper",
+        replace(rig_candidates.RIG_CANDIDATES["ground_spring_damper"], factory=lambda ctx: []),
+    )
+    monkeypatch.setattr(rig_candidates, "generic_local_elements", lambda ctx, n_places=6: [])
+    x, d_sensor, d_place = _chassis_nodes(bodies)
+    node = int(np.argmax(np.where(d_sensor > 0.3, d_place, -1.0)))
+    truth = {"stiffness_n_per_m": 0.0, "damping_n_s_per_m": 3000.0}
+    d = _diagnose_one(bodies, Augment("ground_spring_damper", f"chassis#{node}", truth), seed=11)
+    nested = [c for c in d.metadata["candidates"] if c.get("simpler_than", "").startswith("tuned_mass")]
+    assert nested and all(c["physics"] == "local_element" for c in nested)
+    f = d.findings[0]
+    assert f.physics == "local_element" and "not in the catalogue" in f.explanation
+    assert np.linalg.norm(np.asarray(f.location["position_m"]) - x[node]) < 0.06
+    assert f.parameters["damping_n_s_per_m"]["value"] == pytest.approx(3000.0, rel=0.1)

@@ -229,7 +229,9 @@ def test_the_candidate_screen_on_two_workers_is_the_serial_screen(bodies):
     from exudyn_study.model import build_model_from_bodies, linearise
 
     support, ev, channels = _rear_support(bodies)
-    model = build_model_from_bodies(bodies, 1, damping="constant-2", sensors=FRAME_SENSORS, exudyn_mesh="used")
+    model = build_model_from_bodies(
+        bodies, 1, damping="constant-2", sensors=FRAME_SENSORS, exudyn_mesh="used"
+    )
     lin = linearise(model)
     places = structure_places(model, spacing_m=0.2)
     picks = np.linspace(0, len(places.names) - 1, 3).astype(int)
@@ -239,7 +241,9 @@ def test_the_candidate_screen_on_two_workers_is_the_serial_screen(bodies):
         "local_element": {"stiffness_n_per_m": 1e5, "damping_n_s_per_m": 50.0},
     }
     points = [
-        point_hypothesis(kind, places.names[k], lin, places.maps[k], v) for k in picks for kind, v in values.items()
+        point_hypothesis(kind, places.names[k], lin, places.maps[k], v)
+        for k in picks
+        for kind, v in values.items()
     ]
     for h in points:
         copy = pickle.loads(pickle.dumps(h))
