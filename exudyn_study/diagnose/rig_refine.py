@@ -34,6 +34,7 @@ __all__ = [
     "REFINE_RADIUS_M",
     "REFINE_SPACING_M",
     "REFINE_MIN_GAIN",
+    "REFINE_STEPS",
     "SIMPLER_MARGIN",
 ]
 
@@ -43,6 +44,8 @@ REFINE_RADIUS_M = 0.26
 REFINE_SPACING_M = 0.04
 #: a node is refitted if the fitted element there leaves this share less of the residual
 REFINE_MIN_GAIN = 0.02
+#: refinement steps per point fit at most (each from the last refit's node)
+REFINE_STEPS = 3
 #: the nested simpler entry is named if the residual it leaves (sum of squares) is at most this share
 #: larger than the resonator's
 SIMPLER_MARGIN = 0.1
@@ -102,6 +105,9 @@ def nodes_near(
 def refine_places(problem, state, screening, fits, meta: dict, round_no: int):
     """Refit each acceptable point fit of the round at a better mesh node nearby, when there is one.
 
+    Step by step (at most :data:`REFINE_STEPS`): each refit's node is searched around again, so a fit
+    placed beyond :data:`REFINE_RADIUS_M` from its node walks to it while every step fits better.
+
     Parameters
     ----------
     problem : RigProblem
@@ -127,54 +133,85 @@ def refine_places(problem, state, screening, fits, meta: dict, round_no: int):
     point = [f for f in fits.ok if f["h"].physics in POINT_KINDS and not f.get("place_refined")]
     if fits.together or not point:
         return fits
-    from exudyn_study.diagnose.rig_candidates import place_where, point_of
-    from exudyn_study.diagnose.rig_places import LocalSensitivity, PlaceScorer
+    from exudyn_study.diagnose.rig_places import LocalSensitivity
 
     ev = problem.ev_spectral
     sens = LocalSensitivity.of_evaluator(state.lin, ev)
     ok, fitted = list(fits.ok), list(fits.fitted)
     for f in point:
-        h = f["h"]
-        here = point_of(h, screening.ctx.markers).get("position_m")
-        if here is None:
-            continue
-        values = {n: float(v) for n, v in zip(h.names, f["p"], strict=True)}
-        scorer = PlaceScorer.of_evaluator(sens, ev, state.gains, {h.physics: [values]})
-        _, p_here = place_where(screening.ctx, h.location)
-        nodes = nodes_near(state.model, here)
-        maps = [p_here] + [place_where(screening.ctx, name)[1] for name, _ in nodes]
-        shares = [
-            (best[0][2] if best else -np.inf)
-            for best in scorer.score([sens.reduced(m) for m in maps])
-        ]
-        k = int(np.argmax(shares[1:])) + 1 if nodes else 0
-        left_here, left_best = 1.0 - shares[0], 1.0 - shares[k]
-        if k == 0 or not left_best < (1.0 - REFINE_MIN_GAIN) * left_here:
-            continue
-        name, pos = nodes[k - 1]
-        h2 = _moved(h, screening.ctx, name, values, state.lin)
-        h2.position_m = [float(v) for v in pos]
-        if hasattr(h, "place"):
-            h2.place = point_of(h2, screening.ctx.markers)
-        problem.say(
-            f"refining {h.label}: the fitted element leaves {100 * left_best:.1f} % of the residual at "
-            f"{name}, {np.linalg.norm(np.asarray(pos) - np.asarray(here)):.2f} m away, against "
-            f"{100 * left_here:.1f} % at {h.location}: refitting there"
-        )
-        scr = replace(screening, hyps=screening.hyps + (h2,), scores=screening.scores + (shares[k],))
-        f2 = fit_one(problem, scr, len(scr.hyps) - 1)
-        f2["rejected"] = judge(f2, problem.settings)
-        f2["refined_from"] = h.location
-        fitted.append(f2)
-        if f2["rejected"] is None and f2["rss"] < f["rss"]:
-            ok[next(i for i, g in enumerate(ok) if g is f)] = f2
-        else:
-            problem.say(f"  the refit at {name} does not fit better: {h.label} kept")
+        current = f
+        for _ in range(REFINE_STEPS):  # from node to node while a neighbour explains clearly more
+            f2 = _refine_step(problem, state, screening, current, sens, ev)
+            if f2 is None:
+                break
+            fitted.append(f2)
+            if f2["rejected"] is not None or not f2["rss"] < current["rss"]:
+                problem.say(
+                    f"  the refit at {f2['h'].location} does not fit better: {current['h'].label} kept"
+                )
+                break
+            current = f2
+        if current is not f:
+            ok[next(i for i, g in enumerate(ok) if g is f)] = current
     refits = fitted[len(fits.fitted) :]
     if refits:
         aic0 = aic(screening.rss0, 0, effective_samples(screening.ev_fit))
         meta["candidates"] += candidates_meta(refits, round_no, aic0)
     return replace(fits, fitted=tuple(fitted), ok=tuple(ok))
+
+
+def _refine_step(problem, state, screening, f: dict, sens, ev):
+    """Refit point fit ``f`` at the mesh node nearby where its fitted element explains clearly more.
+
+    Returns the refit's record (``rejected`` and ``refined_from`` set), or None when no node within
+    :data:`REFINE_RADIUS_M` leaves :data:`REFINE_MIN_GAIN` less of the residual than ``f``'s place.
+    """
+    from dataclasses import replace
+
+    from exudyn_study.diagnose.rig_candidates import place_where, point_of
+    from exudyn_study.diagnose.rig_places import PlaceScorer
+
+    h = f["h"]
+    here = point_of(h, screening.ctx.markers).get("position_m")
+    if here is None:
+        return None
+    values = {n: float(v) for n, v in zip(h.names, f["p"], strict=True)}
+    scorer = PlaceScorer.of_evaluator(sens, ev, state.gains, {h.physics: _value_grid(values)})
+    _, p_here = place_where(screening.ctx, h.location)
+    nodes = [(name, pos) for name, pos in nodes_near(state.model, here) if name != h.location]
+    maps = [p_here] + [place_where(screening.ctx, name)[1] for name, _ in nodes]
+    shares = [(best[0][2] if best else -np.inf) for best in scorer.score([sens.reduced(m) for m in maps])]
+    k = int(np.argmax(shares[1:])) + 1 if nodes else 0
+    left_here, left_best = 1.0 - shares[0], 1.0 - shares[k]
+    if k == 0 or not left_best < (1.0 - REFINE_MIN_GAIN) * left_here:
+        return None
+    name, pos = nodes[k - 1]
+    h2 = _moved(h, screening.ctx, name, values, state.lin)
+    h2.position_m = [float(v) for v in pos]
+    if hasattr(h, "place"):
+        h2.place = point_of(h2, screening.ctx.markers)
+    problem.say(
+        f"refining {h.label}: the fitted element leaves {100 * left_best:.1f} % of the residual at "
+        f"{name}, {np.linalg.norm(np.asarray(pos) - np.asarray(here)):.2f} m away, against "
+        f"{100 * left_here:.1f} % at {h.location}: refitting there"
+    )
+    scr = replace(screening, hyps=screening.hyps + (h2,), scores=screening.scores + (shares[k],))
+    f2 = fit_one(problem, scr, len(scr.hyps) - 1)
+    f2["rejected"] = judge(f2, problem.settings)
+    f2["refined_from"] = h.location
+    return f2
+
+
+#: factors on a point fit's amounts (mass, stiffness, damping) at which its element is scored at the
+#: nodes nearby: the value fitted at one node makes up for the motion there, another node needs another
+REFINE_VALUE_FACTORS = (0.5, 0.7, 1.0, 1.4, 2.0)
+#: parameters scaled by :data:`REFINE_VALUE_FACTORS` (a resonator keeps its tuning and damping ratio)
+_AMOUNTS = ("mass_kg", "stiffness_n_per_m", "damping_n_s_per_m")
+
+
+def _value_grid(values: dict) -> list:
+    """Return the point element's parameter sets scored at the nodes nearby (its amounts scaled)."""
+    return [{n: v * a if n in _AMOUNTS else v for n, v in values.items()} for a in REFINE_VALUE_FACTORS]
 
 
 def _moved(h, ctx, place: str, values: dict, lin, kind: str | None = None):
