@@ -155,8 +155,16 @@ class CandidateScorer:
     def score(self, i: int) -> tuple:
         """Return ``(score, start)`` of candidate ``i``.
 
-        ``score`` is :func:`screen_score`'s share, ``start`` the candidate's best screening value (the
-        start of its fit).
+        Parameters
+        ----------
+        i : int
+            Index of the candidate in :attr:`hyps`.
+
+        Returns
+        -------
+        tuple
+            ``(score, start)``: :func:`screen_score`'s share and the candidate's best screening value
+            (the start of its fit).
         """
         h = self.hyps[i]
         gains = h.carry == "gains"
