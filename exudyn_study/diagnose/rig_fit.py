@@ -554,6 +554,54 @@ def choose_batch(problem: RigProblem, screening: Screening, fits: RoundFits) -> 
     return batch
 
 
+def closest_candidates(screening: Screening, n: int = 3) -> tuple:
+    """Return ``(label, screening share)`` of the round's ``n`` best-screened candidates.
+
+    What the generic element's explanation names as the closest catalogue entries.
+
+    Parameters
+    ----------
+    screening : Screening
+        The round's screening.
+    n : int, optional
+        How many (default 3).
+
+    Returns
+    -------
+    tuple of tuple
+        ``(label, share)``, best first.
+    """
+    ranked = sorted(zip(screening.scores, screening.hyps, strict=True), key=lambda t: -t[0])
+    return tuple((h.label, float(score)) for score, h in ranked[:n])
+
+
+def fit_extra(problem: RigProblem, screening: Screening, h, score: float) -> dict:
+    """Fit a hypothesis made after the screen (a refined place, a nested entry) as a screened one; judged.
+
+    Parameters
+    ----------
+    problem : RigProblem
+        The recordings, evaluators and settings.
+    screening : Screening
+        The round's screening (the evaluator ``h`` is judged on).
+    h : Hypothesis
+        The hypothesis.
+    score : float
+        The screening share recorded for it.
+
+    Returns
+    -------
+    dict
+        Its fit record (:func:`fit_one`) with ``rejected`` set (:func:`judge`).
+    """
+    from dataclasses import replace
+
+    scr = replace(screening, hyps=screening.hyps + (h,), scores=screening.scores + (float(score),))
+    f = fit_one(problem, scr, len(scr.hyps) - 1)
+    f["rejected"] = judge(f, problem.settings)
+    return f
+
+
 def fit_generic(
     problem: RigProblem,
     state: ModelState,
@@ -600,8 +648,7 @@ def fit_generic(
     r0 = ev_scr.residual_vector(state.lin, state.gains)
     problem.say(f"screening the generic local element at {len(hyps)} places (no catalogue candidate fits)")
     scores = score_candidates(problem, hyps, ev_scr, r0)
-    ranked = sorted(zip(screening.scores, screening.hyps, strict=True), key=lambda t: -t[0])
-    closest = tuple((h.label, float(score)) for score, h in ranked[:3])
+    closest = closest_candidates(screening)
     for h in hyps:
         h.base_gains = state.gains
         h.place = point_of(h, state.markers)

@@ -24,7 +24,7 @@ import numpy as np
 
 from exudyn_study.diagnose.rig_candidates import POINT_KINDS
 from exudyn_study.diagnose.rig_evaluate import aic, effective_samples
-from exudyn_study.diagnose.rig_fit import candidates_meta, fit_one, judge
+from exudyn_study.diagnose.rig_fit import candidates_meta, closest_candidates, fit_extra
 
 __all__ = [
     "refine_places",
@@ -166,8 +166,6 @@ def _refine_step(problem, state, screening, f: dict, sens, ev):
     Returns the refit's record (``rejected`` and ``refined_from`` set), or None when no node within
     :data:`REFINE_RADIUS_M` leaves :data:`REFINE_MIN_GAIN` less of the residual than ``f``'s place.
     """
-    from dataclasses import replace
-
     from exudyn_study.diagnose.rig_candidates import place_where, point_of
     from exudyn_study.diagnose.rig_places import PlaceScorer
 
@@ -195,9 +193,7 @@ def _refine_step(problem, state, screening, f: dict, sens, ev):
         f"{name}, {np.linalg.norm(np.asarray(pos) - np.asarray(here)):.2f} m away, against "
         f"{100 * left_here:.1f} % at {h.location}: refitting there"
     )
-    scr = replace(screening, hyps=screening.hyps + (h2,), scores=screening.scores + (shares[k],))
-    f2 = fit_one(problem, scr, len(scr.hyps) - 1)
-    f2["rejected"] = judge(f2, problem.settings)
+    f2 = fit_extra(problem, screening, h2, shares[k])
     f2["refined_from"] = h.location
     return f2
 
@@ -326,7 +322,8 @@ def simpler_entries(problem, state, screening, fits, meta: dict, round_no: int):
     if fits.together or not resonators:
         return fits
     ok, fitted = list(fits.ok), list(fits.fitted)
-    ranked = sorted(zip(screening.scores, screening.hyps, strict=True), key=lambda t: -t[0])
+    closest = closest_candidates(screening)
+    aic0 = aic(screening.rss0, 0, effective_samples(screening.ev_fit))
     tried = 0
     for f in resonators:
         h = f["h"]
@@ -342,13 +339,10 @@ def simpler_entries(problem, state, screening, fits, meta: dict, round_no: int):
         if getattr(h, "position_m", None) is not None:
             h2.position_m = list(h.position_m)
         h2.place = point_of(h2, state.markers)
-        h2.closest = tuple((g.label, float(score)) for score, g in ranked[:3])
+        h2.closest = closest
         problem.say(f"{h.label} does not resonate in the band: fitting the {kind.replace('_', ' ')} it nests")
-        scr = replace(screening, hyps=screening.hyps + (h2,), scores=screening.scores + (f["score"],))
-        f2 = fit_one(problem, scr, len(scr.hyps) - 1)
-        f2["rejected"] = judge(f2, st)
+        f2 = fit_extra(problem, screening, h2, f["score"])
         f2["simpler_than"] = h.label
-        aic0 = aic(screening.rss0, 0, effective_samples(screening.ev_fit))
         meta["candidates"] += candidates_meta([f2], round_no, aic0)
         fitted.append(f2)
         if f2["rejected"] is not None:
