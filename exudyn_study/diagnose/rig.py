@@ -75,7 +75,7 @@ from exudyn_study.diagnose.rig_hypotheses import OutputChain
 from exudyn_study.diagnose.rig_locate import distortion_shares, is_level_dependent, level_pair, locate
 from exudyn_study.diagnose.rig_pool import evaluation_pool
 from exudyn_study.diagnose.rig_prove import channel_verdict, prove, relative_damage
-from exudyn_study.diagnose.rig_refine import refine_places, simpler_entries
+from exudyn_study.diagnose.rig_refine import place_again, refine_places, simpler_entries
 from exudyn_study.diagnose.rig_screen import screen
 from exudyn_study.diagnose.rig_settings import RigDiagnosisSettings
 from exudyn_study.diagnose.rig_state import (
@@ -254,8 +254,9 @@ def _record_findings(
         dependent = location.level_dependent or bool(f.get("on_distortion"))
         text = explain(h, p, f["std"], before.lin, after.lin, location.located)
         place = point_of(h, before.markers)
+        flags = tuple(f.get("flags", ()))  # doubts the round raised (an earlier finding it may stand in for)
         findings.append(
-            make_finding(h, p, f["std"], at_bound, (), location.band_hz, dependent, text, fit, place)
+            make_finding(h, p, f["std"], at_bound, flags, location.band_hz, dependent, text, fit, place)
         )
         records.append(
             {
@@ -267,6 +268,7 @@ def _record_findings(
                 "lin_after": after.lin,
                 "located": list(location.located),
                 "at_bound": at_bound,  # the round's: what the data did not determine
+                "flags": flags,
             }
         )
         if h.carry != "gains":
@@ -411,6 +413,10 @@ def _round(
         fits = _generic_if_better(problem, state, screening, fits, meta, round_no)
         stages.lap("fit_generic")
     if not fits.ok:
+        moved = place_again(problem, state, comparison, screening, None, progress, meta, round_no)
+        stages.lap("place_again")
+        if moved is not None:
+            return (*moved, None)
         return (
             state,
             comparison,
@@ -420,6 +426,10 @@ def _round(
     fits = _catalogue_first(problem, fits)
     fits = refine_places(problem, state, screening, fits, meta, round_no)
     stages.lap("refine_places")
+    moved = place_again(problem, state, comparison, screening, fits, progress, meta, round_no)
+    stages.lap("place_again")
+    if moved is not None:
+        return (*moved, None)
     batch = choose_batch(problem, screening, fits)
     stages.lap("polish")
     after, comparison_after, batch = _carry_batch(problem, state, screening, fits, batch)

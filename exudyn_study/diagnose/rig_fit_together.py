@@ -708,7 +708,7 @@ def _refit_findings_text(refit: dict, progress: Progress) -> Progress:
             p_new,
             std_new,
             bound_new,
-            flags,
+            list(r.get("flags", ())) + list(flags),
             old.band_hz,
             old.level_dependent,
             text + " (Values from the final joint refit of all findings; the modes named are "

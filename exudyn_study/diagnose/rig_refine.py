@@ -20,6 +20,8 @@ as above, and names it instead when it leaves at most :data:`SIMPLER_MARGIN` mor
 
 from __future__ import annotations
 
+import math
+
 import numpy as np
 
 from exudyn_study.diagnose.rig_candidates import POINT_KINDS
@@ -36,6 +38,9 @@ __all__ = [
     "REFINE_MIN_GAIN",
     "REFINE_STEPS",
     "SIMPLER_MARGIN",
+    "place_again",
+    "PLACE_AGAIN_MARGIN",
+    "STAND_IN_SHARE",
 ]
 
 #: mesh nodes within this distance (m) of a point fit's place are tried (the screen's cube diagonal)
@@ -246,8 +251,6 @@ def nested_point_entry(values: dict, band_hz: tuple | None = None):
         ``('local_element', {'stiffness_n_per_m': ..., 'damping_n_s_per_m': ...})``; None when the
         resonator resonates in the band.
     """
-    import math
-
     from exudyn_study.diagnose.rig_compare import BAND_HZ
     from exudyn_study.diagnose.rig_explain import TMD_NO_RESONANCE_DAMPING
     from exudyn_study.diagnose.rig_places import element_mu
@@ -364,3 +367,231 @@ def simpler_entries(problem, state, screening, fits, meta: dict, round_no: int):
         else:
             problem.say(f"  it leaves {best['rss'] / f['rss']:.2f} times the resonator's residual: kept")
     return replace(fits, fitted=tuple(fitted), ok=tuple(ok))
+
+
+#: a later finding whose residual share an earlier point finding placed again comes within this share of
+#: (residual sum of squares) is not named: the earlier finding is moved instead
+PLACE_AGAIN_MARGIN = SIMPLER_MARGIN
+#: a later finding is flagged when an earlier point finding placed again explains this share of what
+#: it explains (or more)
+STAND_IN_SHARE = 0.5
+
+
+def place_again(problem, state, comparison, screening, fits, progress, meta: dict, round_no: int):
+    """Place the point findings made so far again, before a later round names new physics for what they leave.
+
+    A point finding (a mass, a resonator, a spring-damper to ground) is placed in its round against the
+    residual of that round; a place a few centimetres off, or judged on a residual that a later finding
+    has since explained, leaves a mismatch of its own that a small element elsewhere can take up. Each
+    earlier point finding is taken out of the current model and its place refined there (the walk of
+    :func:`refine_places`, from its place and values, each step fitting better). Then:
+
+    - the round has an acceptable fit: when the moved finding leaves at most
+      :data:`PLACE_AGAIN_MARGIN` more of the residual than the round's best fit, the finding is moved
+      instead of naming the new one; when it explains at least :data:`STAND_IN_SHARE` of what the new
+      fit explains, the new fit is flagged (it may stand in for the earlier finding's place);
+    - the round has none: the moved finding is taken when it explains ``min_improvement`` of the
+      residual.
+
+    A move is proven on the held-out recordings as a finding is
+    (:func:`~exudyn_study.diagnose.rig_prove.prove`).
+
+    Parameters
+    ----------
+    problem : RigProblem
+        The recordings, evaluators and settings.
+    state : ModelState
+        The current model.
+    comparison : Comparison
+        The current model against the recordings.
+    screening : Screening
+        The round's screening (the evaluator the round is judged on).
+    fits : RoundFits
+        The round's fits; the acceptable ones may get a ``flags`` entry.
+    progress : Progress
+        The findings so far.
+    meta : dict
+        The diagnosis metadata; the refits are appended to ``meta['candidates']`` (``placed_again``:
+        the finding's number), a move to ``meta['placed_again']``.
+    round_no : int
+        Index of the round (0 for the first).
+
+    Returns
+    -------
+    tuple or None
+        ``(state, comparison, progress)`` with the finding moved, or None (nothing moved).
+    """
+    from exudyn_study.diagnose.rig_evaluate import set_offsets
+
+    earlier = [
+        r for r in progress.records if r["accepted"] is not None and r["h"].physics in POINT_KINDS
+    ]
+    if not earlier or (fits is not None and fits.together):
+        return None
+    best_new = max(fits.ok, key=lambda f: f["improvement"]) if fits is not None and fits.ok else None
+    left_new = (1.0 - best_new["improvement"]) ** 2 if best_new is not None else None
+    aic0 = aic(screening.rss0, 0, effective_samples(screening.ev_fit))
+    moves = []
+    for r in earlier:
+        move = _walk_again(problem, state, screening, r, meta, round_no, aic0)
+        if move is not None:
+            moves.append(move)
+    set_offsets(problem.evaluators, state.system)  # the evaluators back at the round's model
+    if not moves:
+        return None
+    best = min(moves, key=lambda m: m["f"]["rss"])
+    left_move = best["f"]["rss"] / screening.rss0
+    explained = 1.0 - math.sqrt(min(left_move, 1.0))
+    number, label = best["record"]["finding"] + 1, best["f"]["h"].label
+    if best_new is None:
+        take = explained >= problem.settings.min_improvement
+        problem.say(
+            f"finding {number} placed again ({label}) explains {100 * explained:.0f} % "
+            + ("of what is left: moved" if take else "of what is left: not enough to move it")
+        )
+    else:
+        take = left_move <= (1.0 + PLACE_AGAIN_MARGIN) * left_new
+        problem.say(
+            f"finding {number} placed again ({label}) explains {100 * explained:.0f} % "
+            f"against {100 * best_new['improvement']:.0f} % for {best_new['h'].label}"
+            + (": moved instead of a new finding" if take else "")
+        )
+        if not take and explained >= STAND_IN_SHARE * best_new["improvement"]:
+            flag = (
+                f"finding {number} ({best['record']['h'].label}) placed again at {best['f']['h'].location}, "
+                f"{best['distance_m']:.2f} m from its place, explains {100 * explained:.0f} % of the "
+                f"residual, this finding {100 * best_new['improvement']:.0f} %: it may stand in for that "
+                "finding's place"
+            )
+            for f in fits.ok:
+                f.setdefault("flags", []).append(flag)
+    if not take:
+        return None
+    return _move(problem, state, comparison, progress, best, meta, round_no)
+
+
+def _walk_again(problem, state, screening, record: dict, meta: dict, round_no: int, aic0: float):
+    """Refine an earlier point finding's place in the current model without it; its best move or None."""
+    from dataclasses import replace
+
+    from exudyn_study.diagnose.rig_candidates import point_of
+    from exudyn_study.diagnose.rig_evaluate import combined_gains, system_residual
+    from exudyn_study.diagnose.rig_places import LocalSensitivity
+    from exudyn_study.diagnose.rig_state import model_state
+
+    h = record["h"]
+    k = record["accepted"]
+    accepted = list(state.accepted)
+    without = model_state(problem, tuple(accepted[:k] + accepted[k + 1 :]), state.gains)
+    ctx = replace(
+        screening.ctx,
+        model=without.model,
+        lin=without.lin,
+        markers=without.markers,
+        build=without.builder(problem),
+        locations=list(without.locations),
+    )
+    ev = screening.judged_on(h)[0]
+    r0 = system_residual(ev, without.lin, without.gains)
+    if r0 is None:
+        return None
+    scr = replace(screening, ctx=ctx, hyps=(), scores=(), order=(), rss0=float(r0 @ r0))
+    p = h.fit_values(accepted[k][2])
+    values = {n: float(v) for n, v in zip(h.names, p, strict=True)}
+    h0 = _moved(h, ctx, h.location, values, without.lin)
+    h0.base_gains = state.gains
+    if getattr(h, "position_m", None) is not None:
+        h0.position_m = list(h.position_m)
+    r_here = system_residual(ev, h0.system(p), combined_gains(h0, p, problem.channels))
+    if r_here is None:
+        return None
+    here = {"h": h0, "p": p, "rss": float(r_here @ r_here)}
+    sens = LocalSensitivity.of_evaluator(without.lin, problem.ev_spectral)
+    problem.say(f"placing finding {record['finding'] + 1} ({h.label}) again on what the later findings leave")
+    current, refits = here, []
+    for _ in range(REFINE_STEPS):
+        f2 = _refine_step(problem, without, scr, current, sens, problem.ev_spectral)
+        if f2 is None:
+            break
+        refits.append(f2)
+        if f2["rejected"] is not None or not f2["rss"] < current["rss"]:
+            break
+        current = f2
+    for f2 in refits:
+        f2["placed_again"] = record["finding"] + 1
+    meta["candidates"] += candidates_meta(refits, round_no, aic0)
+    if current is here:
+        return None
+    start = np.asarray(point_of(h, state.markers).get("position_m", np.nan), dtype=float)
+    end = np.asarray(point_of(current["h"], without.markers).get("position_m", np.nan), dtype=float)
+    return {
+        "record": record,
+        "f": current,
+        "without": without,
+        "distance_m": float(np.linalg.norm(end - start)),
+    }
+
+
+def _move(problem, state, comparison, progress, move: dict, meta: dict, round_no: int):
+    """Carry a moved point finding into the model, prove it on held-out data; the new state or None."""
+    from dataclasses import replace
+
+    from exudyn_study.diagnose.rig_candidates import point_of
+    from exudyn_study.diagnose.rig_compare import compare
+    from exudyn_study.diagnose.rig_evaluate import set_offsets
+    from exudyn_study.diagnose.rig_explain import explain, make_finding
+    from exudyn_study.diagnose.rig_prove import prove
+    from exudyn_study.diagnose.rig_state import model_state
+
+    r, f = move["record"], move["f"]
+    accepted = list(state.accepted)
+    accepted[r["accepted"]] = f["h"].carried(f["p"])
+    after = model_state(problem, tuple(accepted), state.gains)
+    comparison_after = compare(problem, after.system, after.gains)
+    proof = prove(problem, state, comparison, after, comparison_after, [f])
+    if not proof.accepted:
+        set_offsets(problem.evaluators, state.system)
+        return None
+    k = r["finding"]
+    old = progress.findings[k]
+    text = explain(f["h"], f["p"], f["std"], move["without"].lin, after.lin, r["located"])
+    text += (
+        f" (Placed again in round {round_no + 1}, {move['distance_m']:.2f} m from where its own round put "
+        "it: the later findings left a mismatch this place explains.)"
+    )
+    findings, records = list(progress.findings), list(progress.records)
+    findings[k] = make_finding(
+        f["h"],
+        f["p"],
+        f["std"],
+        np.asarray(f.get("at_bound", np.zeros(len(f["h"].names), bool)), dtype=bool),
+        tuple(r.get("flags", ())),
+        old.band_hz,
+        old.level_dependent,
+        text,
+        old.fit,
+        point_of(f["h"], after.markers),
+    )
+    records[k] = {
+        **r,
+        "h": f["h"],
+        "lin_before": move["without"].lin,
+        "lin_after": after.lin,
+        "at_bound": np.asarray(f.get("at_bound", np.zeros(len(f["h"].names), bool)), dtype=bool),
+    }
+    problem.say(
+        f"finding {k + 1} moved to {f['h'].location}, held-out error "
+        f"{proof.fit['holdout_before']:.4f} -> {proof.fit['holdout_after']:.4f}"
+    )
+    meta.setdefault("placed_again", []).append(
+        {
+            "round": round_no + 1,
+            "finding": k + 1,
+            "from": r["h"].location,
+            "to": f["h"].location,
+            "distance_m": round(move["distance_m"], 3),
+            "holdout_before": proof.fit["holdout_before"],
+            "holdout_after": proof.fit["holdout_after"],
+        }
+    )
+    return after, comparison_after, replace(progress, findings=tuple(findings), records=tuple(records))

@@ -421,8 +421,8 @@ class Progress:
     findings : tuple of Finding
     records : tuple of dict
         Per finding: its hypothesis ``h``, ``finding`` (index), ``accepted`` (index into
-        :attr:`ModelState.accepted`; None for a sensor finding), ``lin_before``/``lin_after``, ``located``
-        and ``at_bound``.
+        :attr:`ModelState.accepted`; None for a sensor finding), ``lin_before``/``lin_after``, ``located``,
+        ``at_bound`` and ``flags`` (the round's doubts, kept through the final refit).
     refitted : tuple of str or None
         Labels of the linear findings last refitted together.
     """
