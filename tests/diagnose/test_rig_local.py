@@ -71,6 +71,8 @@ def test_local_element_hypothesis_equals_the_model_with_the_entry_applied(
     np.testing.assert_allclose(h_hyp, h_true, atol=1e-6 * scale)
     assert np.abs(h_true - h_nom).max() > 1e-2 * scale  # the element changes the response
     assert h.carried(h.start)[0] == entry_name
+    # a carried finding's values give back its fitted parameters (a point finding placed again starts there)
+    np.testing.assert_allclose(h.fit_values(h.carried(h.start)[2]), h.start, rtol=1e-12)
 
 
 def test_the_low_rank_update_equals_the_modified_system(bodies):
@@ -508,3 +510,43 @@ def test_a_point_finding_left_short_of_its_node_is_placed_again_in_a_later_round
     assert np.linalg.norm(np.asarray(f.location["position_m"]) - x[node]) < 0.06
     assert f.parameters["mass_kg"]["value"] == pytest.approx(12.0, rel=0.1)
     assert "Placed again in round 2" in f.explanation
+
+
+@pytest.mark.parametrize(
+    ("move_left", "new_improvement", "moved", "flagged"),
+    [
+        (0.20, 0.55, True, False),  # the move leaves 0.20, the new fit 0.2025: moved instead
+        (0.40, 0.55, False, True),  # the move explains 37 %, the new fit 55 %: new named, flagged
+        (0.81, 0.55, False, False),  # the move explains 10 %: new named, no doubt
+    ],
+)
+def test_a_new_finding_competes_with_an_earlier_point_finding_placed_again(
+    monkeypatch, move_left, new_improvement, moved, flagged
+):
+    """The decision after an earlier point finding is placed again: moved when it leaves at most 10 % more of
+    the residual (sum of squares) than the round's best new fit; otherwise the new fit is named, flagged
+    when the move explains half as much as it or more."""
+    from types import SimpleNamespace
+
+    from exudyn_study.diagnose import rig_refine
+    from exudyn_study.diagnose.rig_state import RoundFits
+
+    record = {"h": SimpleNamespace(physics="added_mass", label="added_mass@A"), "accepted": 0, "finding": 0}
+    move_fit = {"h": SimpleNamespace(label="added_mass@B", location="B"), "rss": move_left}
+    monkeypatch.setattr(
+        rig_refine, "_walk_again",
+        lambda *a: {"record": record, "f": move_fit, "without": None, "distance_m": 0.1},
+    )
+    monkeypatch.setattr(rig_refine, "_move", lambda *a: "moved")
+    monkeypatch.setattr("exudyn_study.diagnose.rig_evaluate.set_offsets", lambda *a: None)
+    monkeypatch.setattr(rig_refine, "effective_samples", lambda ev: 100)
+    new = {"h": SimpleNamespace(label="local_element@C"), "improvement": new_improvement}
+    settings = SimpleNamespace(min_improvement=0.3)
+    problem = SimpleNamespace(say=lambda text: None, evaluators=(), settings=settings)
+    screening = SimpleNamespace(rss0=1.0, ev_fit=None)
+    progress = SimpleNamespace(records=(record,))
+    out = rig_refine.place_again(
+        problem, SimpleNamespace(system=None), None, screening, RoundFits((new,), (new,)), progress, {}, 1
+    )
+    assert (out == "moved") is moved
+    assert bool(new.get("flags")) is flagged
