@@ -185,6 +185,8 @@ def score(truth: dict, diagnosis, model) -> dict:
         holdout_after=float(np.mean(final)),
         share_channels_worse=share_worse,
         holdout_ok=bool(np.mean(final) <= 0.5 * np.mean(nominal) and share_worse <= 0.1),
+        # point findings the diagnosis placed again in a later round
+        placed_again=meta.get("placed_again", []),
     )
     return out
 
@@ -320,6 +322,7 @@ def main(argv=None) -> int:
                     "found": r["found"],
                     **{k: r[k] for k in (*keys, "holdout_ok", "wrong_unflagged")},
                     "wall_diagnosis_s": r["wall_diagnosis_s"],
+                    "placed_again": len(r.get("placed_again", [])),
                 }
                 for r in rows
             ],
