@@ -209,6 +209,7 @@ def main(argv=None) -> int:
     ap.add_argument("--duration", type=float, default=60.0, help="seconds per recording")
     ap.add_argument("--out", default=None, help="directory for results.json (default: a temporary one)")
     ap.add_argument("--start", type=int, default=0, help="first scenario index")
+    ap.add_argument("--none-start", type=int, default=0, help="first index of the scenarios with no effect")
     ap.add_argument("--verbose", action="store_true", help="print the diagnosis's progress lines")
     ap.add_argument("--no-results", action="store_true", help="do not write benchmarks/results/*.json")
     ap.add_argument("--pool", choices=("wide", "classic"), default="wide", help="scenario generator")
@@ -222,10 +223,12 @@ def main(argv=None) -> int:
     if args.pool == "wide":
         seed = HELD_BACK_SEED if args.held_back else DEVELOPMENT_SEED
         scenarios = [wide_scenario(i, rng_seed=seed) for i in range(args.start, args.start + args.n)]
-        scenarios += [wide_scenario(500 + i, effect="none", rng_seed=seed) for i in range(args.n_none)]
+        nulls = range(args.none_start, args.none_start + args.n_none)
+        scenarios += [wide_scenario(500 + i, effect="none", rng_seed=seed) for i in nulls]
     else:
         scenarios = [random_scenario(i) for i in range(args.start, args.start + args.n)]
-        scenarios += [random_scenario(100 + i, effect="none") for i in range(args.n_none)]
+        nulls = range(args.none_start, args.none_start + args.n_none)
+        scenarios += [random_scenario(100 + i, effect="none") for i in nulls]
     ref_models = {}
     rows = []
     results_path = out_dir / "results.json"
@@ -327,7 +330,8 @@ def main(argv=None) -> int:
                 for r in rows
             ],
         }
-        case = f"{args.pool}{'-heldback' if args.held_back else ''}-s{args.start}-n{args.n}-none{args.n_none}"
+        nulls = f"-none{args.n_none}" + (f"from{args.none_start}" if args.none_start else "")
+        case = f"{args.pool}{'-heldback' if args.held_back else ''}-s{args.start}-n{args.n}{nulls}"
         print(f"key figures {write_results('bench_diagnose_rig', figures, args=args, case=case, start=run)}")
     return 0
 
