@@ -404,11 +404,10 @@ def test_a_resonator_standing_in_for_a_dashpot_is_named_the_dashpot(bodies, monk
     assert f.parameters["damping_n_s_per_m"]["value"] == pytest.approx(3000.0, rel=0.1)
 
 
-def test_a_point_mass_fitted_far_from_its_node_walks_to_it(bodies, monkeypatch):
-    """Truth: 12 kg at the chassis node farthest from the sensors. The only candidate is a point mass at a
-    chassis node 0.3-0.36 m away along the rail, beyond one refinement's reach (0.26 m): the place refinement
-    steps from node to node while each refit fits better and ends within 0.06 m of the truth, its mass within
-    10 %."""
+def _far_mass_case(bodies, monkeypatch, max_findings: int, **settings):
+    """12 kg at the chassis node farthest from the sensors; the only mass candidate 0.3-0.36 m from it along
+    the rail (beyond one refinement step's reach, 0.26 m). Returns the node positions, the node and the
+    diagnosis (point masses only, ``max_findings`` rounds, further ``settings``)."""
     from dataclasses import replace
 
     from exudyn_study.diagnose import rig_candidates
@@ -440,11 +439,22 @@ def test_a_point_mass_fitted_far_from_its_node_walks_to_it(bodies, monkeypatch):
     ).with_seed(13)
     train = virtual_recording(sc, "white-noise", 16.0, bodies=bodies, sensors=FRAME_SENSORS)
     hold = virtual_recording(sc, "test", 16.0, bodies=bodies, sensors=FRAME_SENSORS)
-    st = RigDiagnosisSettings(train_duration_s=12.0, screen_duration_s=8.0, max_findings=1)
+    st = RigDiagnosisSettings(
+        train_duration_s=12.0, screen_duration_s=8.0, max_findings=max_findings, **settings
+    )
     d = diagnose_rig(
         1, [train], [hold], damping="constant-2", bodies=bodies, sensors=FRAME_SENSORS, settings=st,
         candidates=("added_mass",),
     )
+    return x, node, d
+
+
+def test_a_point_mass_fitted_far_from_its_node_walks_to_it(bodies, monkeypatch):
+    """Truth: 12 kg at the chassis node farthest from the sensors. The only candidate is a point mass at a
+    chassis node 0.3-0.36 m away along the rail, beyond one refinement's reach (0.26 m): the place refinement
+    steps from node to node while each refit fits better and ends within 0.06 m of the truth, its mass within
+    10 %."""
+    x, node, d = _far_mass_case(bodies, monkeypatch, max_findings=1)
     steps = [c for c in d.metadata["candidates"] if c.get("refined_from")]
     assert len(steps) >= 2  # more than one step
     f = d.findings[0]
@@ -463,45 +473,10 @@ def test_a_point_finding_left_short_of_its_node_is_placed_again_in_a_later_round
     the truth with its mass within 10 %, and no second finding is named. With ``min_improvement`` 0.1 the
     generic element to ground is acceptable in round 2 (it takes up the misplaced mass's leftover, 1.5 m
     away): the moved mass explains more and is taken instead."""
-    from dataclasses import replace
+    from exudyn_study.diagnose import rig_refine
 
-    from exudyn_study.diagnose import rig_candidates, rig_refine
-    from exudyn_study.diagnose.rig import RigDiagnosisSettings, diagnose_rig
-    from exudyn_study.virtual_rig import Augment, Scenario, virtual_recording
-
-    x, d_sensor, _ = _chassis_nodes(bodies)
-    node = int(np.argmax(d_sensor))
-    distance = np.linalg.norm(x - x[node], axis=1)
-    ring = np.flatnonzero((distance > 0.3) & (distance < 0.36))
-    start = int(ring[np.argmin(x[ring, 0])])
-
-    def far_mass(ctx):
-        place = f"chassis#{start}"
-        where, p_map = rig_candidates.place_where(ctx, place)
-        h = rig_candidates.point_hypothesis("added_mass", place, ctx.lin, p_map, {"mass_kg": 5.0}, **where)
-        h.position_m = [float(v) for v in x[start]]
-        h.screen_grid = ((1.0,), (3.0,), (10.0,), (30.0,))
-        return [h]
-
-    monkeypatch.setitem(
-        rig_candidates.RIG_CANDIDATES,
-        "added_mass",
-        replace(rig_candidates.RIG_CANDIDATES["added_mass"], factory=far_mass),
-    )
     monkeypatch.setattr(rig_refine, "REFINE_STEPS", 1)
-    sc = Scenario(
-        "mini", "test", variant=1, damping="constant-2",
-        augmentations=(Augment("added_mass", f"chassis#{node}", {"mass_kg": 12.0}),),
-    ).with_seed(13)
-    train = virtual_recording(sc, "white-noise", 16.0, bodies=bodies, sensors=FRAME_SENSORS)
-    hold = virtual_recording(sc, "test", 16.0, bodies=bodies, sensors=FRAME_SENSORS)
-    st = RigDiagnosisSettings(
-        train_duration_s=12.0, screen_duration_s=8.0, max_findings=2, min_improvement=min_improvement
-    )
-    d = diagnose_rig(
-        1, [train], [hold], damping="constant-2", bodies=bodies, sensors=FRAME_SENSORS, settings=st,
-        candidates=("added_mass",),
-    )
+    x, node, d = _far_mass_case(bodies, monkeypatch, max_findings=2, min_improvement=min_improvement)
     moves = d.metadata.get("placed_again") or []
     assert len(moves) == 1 and moves[0]["round"] == 2
     assert moves[0]["holdout_after"] < moves[0]["holdout_before"]
