@@ -376,8 +376,8 @@ def candidates_meta(fitted, round_no: int, aic0: float) -> list:
     Parameters
     ----------
     fitted : list of dict
-        Fit records (:func:`fit_one`; ``rejected`` set, ``drift``, ``refined_from`` and ``simpler_than``
-        when made).
+        Fit records (:func:`fit_one`; ``rejected`` set, ``drift``, ``refined_from``, ``simpler_than`` and
+        ``placed_again`` when made).
     round_no : int
         Index of the round (0 for the first).
     aic0 : float
@@ -404,6 +404,7 @@ def candidates_meta(fitted, round_no: int, aic0: float) -> list:
             **({"per_recording": f["drift"]["per_recording"]} if f.get("drift") else {}),
             **({"refined_from": f["refined_from"]} if f.get("refined_from") else {}),
             **({"simpler_than": f["simpler_than"]} if f.get("simpler_than") else {}),
+            **({"placed_again": f["placed_again"]} if f.get("placed_again") else {}),
         }
         for f in fitted
     ]

@@ -479,6 +479,7 @@ def test_a_point_finding_left_short_of_its_node_is_placed_again_in_a_later_round
     x, node, d = _far_mass_case(bodies, monkeypatch, max_findings=2, min_improvement=min_improvement)
     moves = d.metadata.get("placed_again") or []
     assert len(moves) == 1 and moves[0]["round"] == 2
+    assert any(c.get("placed_again") == 1 for c in d.metadata["candidates"])  # the refits are in the JSON
     assert moves[0]["holdout_after"] < moves[0]["holdout_before"]
     assert [f.physics for f in d.findings] == ["added_mass"]
     f = d.findings[0]
