@@ -144,18 +144,8 @@ def refine_places(problem, state, screening, fits, meta: dict, round_no: int):
     sens = LocalSensitivity.of_evaluator(state.lin, ev)
     ok, fitted = list(fits.ok), list(fits.fitted)
     for f in point:
-        current = f
-        for _ in range(REFINE_STEPS):  # from node to node while a neighbour explains clearly more
-            f2 = _refine_step(problem, state, screening, current, sens, ev)
-            if f2 is None:
-                break
-            fitted.append(f2)
-            if f2["rejected"] is not None or not f2["rss"] < current["rss"]:
-                problem.say(
-                    f"  the refit at {f2['h'].location} does not fit better: {current['h'].label} kept"
-                )
-                break
-            current = f2
+        current, refits = _walk(problem, state, screening, f, sens, ev)
+        fitted += refits
         if current is not f:
             ok[next(i for i, g in enumerate(ok) if g is f)] = current
     refits = fitted[len(fits.fitted) :]
@@ -163,6 +153,25 @@ def refine_places(problem, state, screening, fits, meta: dict, round_no: int):
         aic0 = aic(screening.rss0, 0, effective_samples(screening.ev_fit))
         meta["candidates"] += candidates_meta(refits, round_no, aic0)
     return replace(fits, fitted=tuple(fitted), ok=tuple(ok))
+
+
+def _walk(problem, state, screening, f: dict, sens, ev) -> tuple:
+    """Refine point fit ``f``'s place from node to node while a neighbour explains clearly more.
+
+    At most :data:`REFINE_STEPS` steps, each refit fitting better than the last. Returns
+    ``(best fit, every refit made)``; the best fit is ``f`` when no step fits better.
+    """
+    current, refits = f, []
+    for _ in range(REFINE_STEPS):
+        f2 = _refine_step(problem, state, screening, current, sens, ev)
+        if f2 is None:
+            break
+        refits.append(f2)
+        if f2["rejected"] is not None or not f2["rss"] < current["rss"]:
+            problem.say(f"  the refit at {f2['h'].location} does not fit better: {current['h'].label} kept")
+            break
+        current = f2
+    return current, refits
 
 
 def _refine_step(problem, state, screening, f: dict, sens, ev):
@@ -216,7 +225,11 @@ def _value_grid(values: dict) -> list:
 
 
 def _moved(h, ctx, place: str, values: dict, lin, kind: str | None = None):
-    """Return a hypothesis like ``h`` (or of point ``kind``) at ``place``, started at ``values``."""
+    """Return a hypothesis like ``h`` (or of point ``kind``) at ``place``, started at ``values``.
+
+    At ``h``'s own place it keeps ``h``'s coordinates (a mesh node's, which the place name alone does not
+    carry to the markers).
+    """
     from exudyn_study.diagnose.rig_candidates import place_where, point_hypothesis
 
     where, p_map = place_where(ctx, place)
@@ -224,6 +237,8 @@ def _moved(h, ctx, place: str, values: dict, lin, kind: str | None = None):
     moved.start = np.clip(moved.start, moved.lower, moved.upper)
     if hasattr(h, "closest"):
         moved.closest = h.closest
+    if place == h.location and getattr(h, "position_m", None) is not None:
+        moved.position_m = list(h.position_m)
     return moved
 
 
@@ -339,8 +354,6 @@ def simpler_entries(problem, state, screening, fits, meta: dict, round_no: int):
         kind, values = nested
         h2 = _moved(h, screening.ctx, h.location, values, state.lin, kind=kind)
         h2.base_gains = h.base_gains
-        if getattr(h, "position_m", None) is not None:
-            h2.position_m = list(h.position_m)
         h2.place = point_of(h2, state.markers)
         h2.closest = closest
         problem.say(f"{h.label} does not resonate in the band: fitting the {kind.replace('_', ' ')} it nests")
@@ -500,23 +513,13 @@ def _walk_again(problem, state, screening, record: dict, meta: dict, round_no: i
     values = {n: float(v) for n, v in zip(h.names, p, strict=True)}
     h0 = _moved(h, ctx, h.location, values, without.lin)
     h0.base_gains = state.gains
-    if getattr(h, "position_m", None) is not None:
-        h0.position_m = list(h.position_m)
     r_here = system_residual(ev, h0.system(p), combined_gains(h0, p, problem.channels))
     if r_here is None:
         return None
     here = {"h": h0, "p": p, "rss": float(r_here @ r_here)}
     sens = LocalSensitivity.of_evaluator(without.lin, problem.ev_spectral)
     problem.say(f"placing finding {record['finding'] + 1} ({h.label}) again on what the later findings leave")
-    current, refits = here, []
-    for _ in range(REFINE_STEPS):
-        f2 = _refine_step(problem, without, scr, current, sens, problem.ev_spectral)
-        if f2 is None:
-            break
-        refits.append(f2)
-        if f2["rejected"] is not None or not f2["rss"] < current["rss"]:
-            break
-        current = f2
+    current, refits = _walk(problem, without, scr, here, sens, problem.ev_spectral)
     for f2 in refits:
         f2["placed_again"] = record["finding"] + 1
     meta["candidates"] += candidates_meta(refits, round_no, aic0)
@@ -554,6 +557,7 @@ def _move(problem, state, comparison, progress, move: dict, meta: dict, round_no
         return None
     k = r["finding"]
     old = progress.findings[k]
+    at_bound = np.asarray(f.get("at_bound", np.zeros(len(f["h"].names), bool)), dtype=bool)
     text = explain(f["h"], f["p"], f["std"], move["without"].lin, after.lin, r["located"])
     text += (
         f" (Placed again in round {round_no + 1}, {move['distance_m']:.2f} m from where its own round put "
@@ -564,7 +568,7 @@ def _move(problem, state, comparison, progress, move: dict, meta: dict, round_no
         f["h"],
         f["p"],
         f["std"],
-        np.asarray(f.get("at_bound", np.zeros(len(f["h"].names), bool)), dtype=bool),
+        at_bound,
         tuple(r.get("flags", ())),
         old.band_hz,
         old.level_dependent,
@@ -577,7 +581,7 @@ def _move(problem, state, comparison, progress, move: dict, meta: dict, round_no
         "h": f["h"],
         "lin_before": move["without"].lin,
         "lin_after": after.lin,
-        "at_bound": np.asarray(f.get("at_bound", np.zeros(len(f["h"].names), bool)), dtype=bool),
+        "at_bound": at_bound,
     }
     problem.say(
         f"finding {k + 1} moved to {f['h'].location}, held-out error "
