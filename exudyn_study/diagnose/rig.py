@@ -28,9 +28,12 @@ explain (:mod:`~exudyn_study.diagnose.rig_explain`); settings in
    training AIC and on the held-out error). With one drive at two training levels the nonlinear
    candidates are fitted on the level-dependent share of the response (``y_strong - c y_weak``).
    Last, the generic local element stands in for physics outside the catalogue. The generic element
-   gives way to a catalogue fit that explains nearly as much (within 5 %); a point fit (a mass, a
-   resonator, the generic element) is refitted at a better mesh node within 0.26 m when the fitted
-   element explains clearly more there (:mod:`~exudyn_study.diagnose.rig_refine`).
+   gives way to a catalogue fit that explains nearly as much (within 5 %), and replaces a
+   modal damping factor whose factors per band of modes disagree (a local damper, not a
+   body-wide change: :mod:`~exudyn_study.diagnose.rig_global`) when it explains nearly as
+   much; a point fit (a mass, a resonator, the generic element) is refitted at a better mesh
+   node within 0.26 m when the fitted element explains clearly more there
+   (:mod:`~exudyn_study.diagnose.rig_refine`).
 5. **Prove**: a round's findings must not raise the held-out error nor make more than
    ``max_channels_worse`` of the held-out channels materially worse; a nonlinear finding fitted on
    the level-dependent share is proven on that share at a held-out level of the same drive (it must
@@ -71,6 +74,7 @@ from exudyn_study.diagnose.rig_explain import (
 )
 from exudyn_study.diagnose.rig_fit import choose_batch, fit_generic, fit_nonlinear, fit_round
 from exudyn_study.diagnose.rig_fit_together import refit_findings
+from exudyn_study.diagnose.rig_global import body_wide
 from exudyn_study.diagnose.rig_hypotheses import OutputChain
 from exudyn_study.diagnose.rig_locate import distortion_shares, is_level_dependent, level_pair, locate
 from exudyn_study.diagnose.rig_pool import evaluation_pool
@@ -412,6 +416,8 @@ def _round(
     elif _stretched(fits):
         fits = _generic_if_better(problem, state, screening, fits, meta, round_no)
         stages.lap("fit_generic")
+    fits = body_wide(problem, state, screening, fits, meta, round_no)
+    stages.lap("body_wide")
     if not fits.ok:
         moved = place_again(problem, state, comparison, screening, None, progress, meta, round_no)
         stages.lap("place_again")

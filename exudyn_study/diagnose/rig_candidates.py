@@ -488,12 +488,14 @@ def _modal_damping(ctx: CandidateContext):
         idx = np.asarray(model.mbs.systemData.GetNodeLTGODE2(handle.modal_node), dtype=int)
         freq = np.asarray(handle.body.frequencies_hz, dtype=float)
         n_rigid = idx.size - freq.size  # linear CMS bodies carry 6 rigid-body coordinates first
-        idx = idx[n_rigid:][freq <= MODAL_DAMPING_MAX_HZ]
+        scaled = freq <= MODAL_DAMPING_MAX_HZ
+        idx = idx[n_rigid:][scaled]
         out.append(
             ModalDampingHypothesis(
                 body,
                 ctx.lin,
                 idx,
+                frequencies_hz=freq[scaled],
                 component=body,
                 sensors=tuple(ctx.located),
                 fixed={"max_frequency_hz": MODAL_DAMPING_MAX_HZ},

@@ -881,12 +881,21 @@ class ModalDampingHypothesis(Hypothesis):
         Indices of the body's coordinates in the full coordinates, shape (n_body,).
     bounds : tuple of float, optional
         Lower and upper bound of the factor; default (0.1, 10).
+    frequencies_hz : array_like or None, optional
+        Free-free frequency of the body mode at each of ``body_indices`` (None: not known; the
+        factor cannot then be fitted per band of modes, :class:`ModalDampingBandsHypothesis`).
     **where
         Further :class:`Hypothesis` fields (``component``, ``sensors``, ...).
     """
 
     def __init__(
-        self, location, nominal: LinearSystem, body_indices: np.ndarray, bounds=(0.1, 10.0), **where
+        self,
+        location,
+        nominal: LinearSystem,
+        body_indices: np.ndarray,
+        bounds=(0.1, 10.0),
+        frequencies_hz=None,
+        **where,
     ):
         super().__init__(
             "modal_damping",
@@ -903,6 +912,8 @@ class ModalDampingHypothesis(Hypothesis):
         idx = np.asarray(body_indices, dtype=int)
         c_body[np.ix_(idx, idx)] = nominal.full_damping[np.ix_(idx, idx)]
         self.c_body = c_body
+        self.body_indices = idx
+        self.frequencies_hz = None if frequencies_hz is None else np.asarray(frequencies_hz, dtype=float)
 
     def system(self, p):
         """Return the candidate's linear system at parameters ``p``.
@@ -923,6 +934,68 @@ class ModalDampingHypothesis(Hypothesis):
             self.nominal.full_stiffness,
             self.nominal,
         )
+
+
+class ModalDampingBandsHypothesis(Hypothesis):
+    """The damping of one flexible body's modes scaled by one factor per group of its modes.
+
+    The test of a :class:`ModalDampingHypothesis`: a body-wide change of damping scales the
+    groups alike, a local damper (its added damping of each mode goes with the mode's motion
+    squared at one place) does not. With all factors equal this is the single-factor hypothesis:
+    the body's damping block ``C`` becomes ``S C S`` with ``S = diag(sqrt(factor of each
+    coordinate's group))``, which keeps ``C`` positive semi-definite when the modes are coupled.
+
+    Parameters
+    ----------
+    h : ModalDampingHypothesis
+        The single-factor hypothesis (its body, nominal system and coordinates).
+    groups : sequence of array_like
+        Positions in ``h.body_indices`` of each group's modes (together, every position once).
+    bands_hz : sequence of tuple
+        ``(lowest, highest)`` free-free frequency of each group's modes (reported with the factors).
+    """
+
+    def __init__(self, h: ModalDampingHypothesis, groups, bands_hz):
+        n = len(groups)
+        start = float(np.atleast_1d(h.start)[0])
+        super().__init__(
+            "modal_damping_bands",
+            h.location,
+            tuple(f"factor_{k + 1}" for k in range(n)),
+            ("1",) * n,
+            np.full(n, float(h.lower[0])),
+            np.full(n, float(h.upper[0])),
+            np.full(n, start),
+            component=h.component,
+            sensors=h.sensors,
+        )
+        self.base_gains = getattr(h, "base_gains", None)
+        self.nominal = h.nominal
+        self.body_indices = h.body_indices
+        self.groups = [np.asarray(g, dtype=int) for g in groups]
+        self.bands_hz = [tuple(float(x) for x in b) for b in bands_hz]
+
+    def system(self, p):
+        """Return the candidate's linear system at parameters ``p``.
+
+        Parameters
+        ----------
+        p : array_like
+            One factor per group (all 1: nominal).
+
+        Returns
+        -------
+        LinearSystem
+            The nominal system with the body's damping block scaled group by group.
+        """
+        scale = np.ones(self.body_indices.size)
+        for g, f in zip(self.groups, np.atleast_1d(p), strict=True):
+            scale[g] = np.sqrt(float(f))
+        idx = self.body_indices
+        c = np.array(self.nominal.full_damping, dtype=float, copy=True)
+        block = c[np.ix_(idx, idx)]
+        c[np.ix_(idx, idx)] = scale[:, None] * block * scale[None, :]
+        return project(self.nominal.full_mass, c, self.nominal.full_stiffness, self.nominal)
 
 
 class SensorGainHypothesis(Hypothesis):
