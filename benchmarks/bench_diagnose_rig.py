@@ -33,9 +33,10 @@ Scores, per truth effect (a finding matched to it):
 
 Run: ``python3 benchmarks/bench_diagnose_rig.py [--pool wide|classic] [--held-back] [--n 20]
 [--n-none 3] [--start 0] [--out DIR] [--no-results]`` (minutes per scenario on 2 cores; ``--start I
---n N`` runs scenarios I..I+N-1). Results: ``DIR/results.json`` and a table on stdout; the scores
-and wall times with date, commit and load in ``benchmarks/results/bench_diagnose_rig--<case>.json``
-(``--no-results``: not written).
+--n N`` runs scenarios I..I+N-1). Results: ``DIR/results.json``, each scenario's diagnosis
+(``DIR/<scenario>.diagnosis.json``) and a table on stdout; the scores and wall times with date,
+commit and load in ``benchmarks/results/bench_diagnose_rig--<case>.json`` (``--no-results``: not
+written).
 """
 
 from __future__ import annotations
@@ -207,7 +208,11 @@ def main(argv=None) -> int:
     ap.add_argument("--n", type=int, default=20, help="scenarios with a random effect")
     ap.add_argument("--n-none", type=int, default=3, help="scenarios with no effect")
     ap.add_argument("--duration", type=float, default=60.0, help="seconds per recording")
-    ap.add_argument("--out", default=None, help="directory for results.json (default: a temporary one)")
+    ap.add_argument(
+        "--out",
+        default=None,
+        help="directory for results.json and each scenario's diagnosis JSON (default: a temporary one)",
+    )
     ap.add_argument("--start", type=int, default=0, help="first scenario index")
     ap.add_argument("--none-start", type=int, default=0, help="first index of the scenarios with no effect")
     ap.add_argument("--verbose", action="store_true", help="print the diagnosis's progress lines")
@@ -245,6 +250,7 @@ def main(argv=None) -> int:
                 progress = lambda t, name=sc.name: print(f"  {name}: {t}", flush=True)  # noqa: E731
             d = diagnose_rig(sc.variant, paths[:2], paths[2:], progress=progress)
             t_diag = time.perf_counter() - t0
+            d.write_json(out_dir / f"{sc.name}.diagnosis.json")  # every candidate fit, for reading later
             truth = json.loads((Path(tmp) / truth_name(sc.name)).read_text())
         if sc.variant not in ref_models:
             ref_models[sc.variant] = build_model(sc.variant, exudyn_mesh="used")
