@@ -432,6 +432,8 @@ def _round(
     fits = _catalogue_first(problem, fits)
     fits = refine_places(problem, state, screening, fits, meta, round_no)
     stages.lap("refine_places")
+    fits = simpler_entries(problem, state, screening, fits, meta, round_no)  # of the refits at new places
+    stages.lap("simpler_entries")
     moved = place_again(problem, state, comparison, screening, fits, progress, meta, round_no)
     stages.lap("place_again")
     if moved is not None:

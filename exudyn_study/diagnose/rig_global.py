@@ -16,8 +16,13 @@ round's acceptable fits include a modal damping factor, :func:`body_wide` asks t
    than :data:`BAND_SIGMAS` standard deviations of their logarithms.
 2. **Against the local element.** The generic local element (a spring-damper to ground at the
    places the round's screen points at) is fitted. It replaces the factor when it explains
-   ``GENERIC_MARGIN`` more of the residual than the factor, or, the bands disagreeing, nearly as
-   much (at most ``GENERIC_MARGIN`` less): local physics that the data say is local.
+   ``GENERIC_MARGIN`` more of the training error than the factor, or, the bands disagreeing, nearly
+   as much (at most ``GENERIC_MARGIN`` less): local physics that the data say is local. Both are
+   compared on the time histories, where a round far off fits on log transmissibilities: there a
+   damping change moves little of the residual (the peaks' heights, not their places), and a
+   factor can come in through a joint fit, proven on the held-out error, while every single fit
+   "explains too little". The local element must itself be identifiable, keep the response on and
+   explain ``min_improvement`` of the training error.
 
 A factor kept although its bands disagree is flagged; the factors per band are in the JSON
 (``meta['candidates']``, ``per_band``) either way.
@@ -177,15 +182,24 @@ def body_wide(problem, state, screening, fits, meta: dict, round_no: int):
     modal = [f for f in fits.ok if f["h"].physics == "modal_damping"]
     if not modal:
         return fits
+    st = problem.settings
     fitted = list(fits.fitted)
-    generic_ok = [
-        f for f in fits.fitted if f["h"].physics == "local_element" and f.get("rejected") is None
-    ]
     if not any(f["h"].physics == "local_element" for f in fits.fitted):
-        generic = fit_generic(problem, state, screening, RoundFits((), ()), meta, round_no)
-        fitted += list(generic.fitted)
-        generic_ok = list(generic.ok)
-    best_generic = max(generic_ok, key=lambda f: f["improvement"], default=None)
+        fitted += list(fit_generic(problem, state, screening, RoundFits((), ()), meta, round_no).fitted)
+    error0 = math.sqrt(screening.rss0_time / len(problem.train_recs))
+
+    def explains(f):  # share of the training error (time histories) the fit removes
+        return 1.0 - f["error_after"] / error0
+
+    generic_ok = [
+        f
+        for f in fitted
+        if f["h"].physics == "local_element"
+        and f["identifiable"]
+        and f["response_ratio"] >= st.min_response_ratio
+        and explains(f) >= st.min_improvement
+    ]
+    best_generic = max(generic_ok, key=explains, default=None)
     # a joint fit's other members were fitted with the factor: it is replaced only when it stands alone
     replaceable = not fits.together or len(fits.ok) == 1
     ok = list(fits.ok)
@@ -213,12 +227,12 @@ def body_wide(problem, state, screening, fits, meta: dict, round_no: int):
                     "improvement": round(bands["improvement"], 4),
                 }
             )
-        local_explains = best_generic["improvement"] if best_generic is not None else -math.inf
-        need = f["improvement"] + (-GENERIC_MARGIN if disagree else GENERIC_MARGIN)
+        local_explains = explains(best_generic) if best_generic is not None else -math.inf
+        need = explains(f) + (-GENERIC_MARGIN if disagree else GENERIC_MARGIN)
         if replaceable and local_explains >= need:
             problem.say(
-                f"{f['h'].label}: the generic local element explains {100 * local_explains:.0f} % against "
-                f"{100 * f['improvement']:.0f} %"
+                f"{f['h'].label}: the generic local element at {best_generic['h'].location} explains "
+                f"{100 * local_explains:.0f} % of the training error against {100 * explains(f):.0f} %"
                 + (", and the factors per band of modes disagree" if disagree else "")
                 + ": the local element is taken instead"
             )
@@ -232,7 +246,7 @@ def body_wide(problem, state, screening, fits, meta: dict, round_no: int):
                 "a local damper may explain it"
                 + (
                     f" (the generic local element at {best_generic['h'].location} explains "
-                    f"{100 * local_explains:.0f} % against {100 * f['improvement']:.0f} %)"
+                    f"{100 * local_explains:.0f} % of the training error against {100 * explains(f):.0f} %)"
                     if best_generic is not None
                     else ""
                 )

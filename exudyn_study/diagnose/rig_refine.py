@@ -295,7 +295,9 @@ def simpler_entries(problem, state, screening, fits, meta: dict, round_no: int):
     resonator's place from the resonator's equivalent values and its place refined
     (:func:`refine_places`). It replaces an acceptable resonator when the residual it leaves is at most
     :data:`SIMPLER_MARGIN` larger; it joins the acceptable fits in place of an unidentifiable one when it
-    is acceptable itself.
+    is acceptable itself. Each resonator fit is asked once: the round asks again after the place
+    refinement, of the resonators refitted at a better place (their values there may not resonate in
+    the band where the screened place's did).
 
     Parameters
     ----------
@@ -330,6 +332,7 @@ def simpler_entries(problem, state, screening, fits, meta: dict, round_no: int):
             f
             for f in fits.fitted
             if f["h"].physics == "tuned_mass_damper"
+            and not f.get("nested_tried")
             and (
                 id(f) in ok_ids
                 or (f["rejected"] == "not identifiable" and f["improvement"] >= st.min_improvement)
@@ -347,10 +350,12 @@ def simpler_entries(problem, state, screening, fits, meta: dict, round_no: int):
         h = f["h"]
         nested = nested_point_entry({n: float(v) for n, v in zip(h.names, f["p"], strict=True)})
         if nested is None or (nested[0] == "added_mass" and not problem.wants("added_mass")):
+            f["nested_tried"] = True  # asked once: asked again only of a refit at a refined place
             continue
         if tried == SIMPLER_TRIES:
             break
         tried += 1
+        f["nested_tried"] = True
         kind, values = nested
         h2 = _moved(h, screening.ctx, h.location, values, state.lin, kind=kind)
         h2.base_gains = h.base_gains
