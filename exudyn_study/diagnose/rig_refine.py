@@ -228,7 +228,8 @@ def _moved(h, ctx, place: str, values: dict, lin, kind: str | None = None):
     """Return a hypothesis like ``h`` (or of point ``kind``) at ``place``, started at ``values``.
 
     At ``h``'s own place it keeps ``h``'s coordinates (a mesh node's, which the place name alone does not
-    carry to the markers).
+    carry to the markers). It keeps ``h``'s output gains of the faults found before (``base_gains``):
+    refitted without them, a place is judged against the faults' own mismatch.
     """
     from exudyn_study.diagnose.rig_candidates import place_where, point_hypothesis
 
@@ -237,6 +238,8 @@ def _moved(h, ctx, place: str, values: dict, lin, kind: str | None = None):
     moved.start = np.clip(moved.start, moved.lower, moved.upper)
     if hasattr(h, "closest"):
         moved.closest = h.closest
+    if hasattr(h, "base_gains"):
+        moved.base_gains = h.base_gains
     if place == h.location and getattr(h, "position_m", None) is not None:
         moved.position_m = list(h.position_m)
     return moved
@@ -358,7 +361,6 @@ def simpler_entries(problem, state, screening, fits, meta: dict, round_no: int):
         f["nested_tried"] = True
         kind, values = nested
         h2 = _moved(h, screening.ctx, h.location, values, state.lin, kind=kind)
-        h2.base_gains = h.base_gains
         h2.place = point_of(h2, state.markers)
         h2.closest = closest
         problem.say(f"{h.label} does not resonate in the band: fitting the {kind.replace('_', ' ')} it nests")
