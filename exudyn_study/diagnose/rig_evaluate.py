@@ -192,6 +192,10 @@ class Evaluator:
         parts = []
         for k, (r, sim) in enumerate(zip(self.recs, self.simulate(lin, gains), strict=True)):
             e = self._filtered_residual(k, r, sim)
+            dead = ~np.any(sim != 0.0, axis=1)
+            if dead.any():  # a channel the acquisition chain records as nothing (a dead sensor found): its
+                e = e.copy()  # noise says nothing of the structure and would stay in every later residual
+                e[dead] = 0.0
             parts.append(e.ravel() / math.sqrt(e.size))
         return np.concatenate(parts)
 
@@ -307,6 +311,9 @@ class SpectralEvaluator:
         for r, idx, log_h, w in zip(self.recs, self.idx, self.log_h, self.weight, strict=True):
             hm = apply_output_frf(h[idx], gains, r.channels, self.f)
             e = w * (np.log(np.abs(hm) + 1e-300) - log_h)
+            # a channel the acquisition chain records as nothing (a dead sensor found): its recording says
+            # nothing of the structure, and its log distance to the noise (~700) would drown every other
+            e[~np.any(hm != 0.0, axis=1)] = 0.0
             parts.append(e.ravel() / math.sqrt(e.size))
         return np.concatenate(parts)
 

@@ -488,6 +488,7 @@ class PlaceScorer:
             else:
                 hm = np.array([apply_output_frf(x, gains, channels, f) for x in h])
             e = w[None] * (np.log(np.abs(hm) + 1e-300) - log_h[None])
+            e[~np.any(hm != 0.0, axis=2)] = 0.0  # a dead channel found: no information (SpectralEvaluator)
             total += np.sum(e**2, axis=(1, 2)) / e[0].size
         return total
 

@@ -300,6 +300,33 @@ def test_a_dashpot_between_the_screened_places_is_refitted_at_its_node(bodies):
     assert refits and refits[0]["physics"] == "local_element"  # the refit is in the JSON
 
 
+def test_a_dashpot_after_a_dead_channel_is_found_and_placed_at_its_node(bodies):
+    """Truth: a dead channel (ARFHX records only noise) and the 3000 N s/m dashpot between the screened places.
+    Round 1 names the dead channel. The channel's recording then carries nothing of the structure: its noise
+    (a relative error of 1 against a model that records nothing there) is left out of every later residual,
+    on time histories and log transmissibilities, and the place refinement refits with the dead channel in
+    the output chain. Round 2 names the dashpot at its node with its damping."""
+    from exudyn_study.diagnose.rig import RigDiagnosisSettings, diagnose_rig
+    from exudyn_study.virtual_rig import Augment, Scenario, virtual_recording
+
+    x, d_sensor, d_place = _chassis_nodes(bodies)
+    node = int(np.argmax(np.where(d_sensor > 0.3, d_place, -1.0)))
+    truth = {"stiffness_n_per_m": 0.0, "damping_n_s_per_m": 3000.0}
+    augs = (Augment("sensor_dead", "ARFHX", {}), Augment("ground_spring_damper", f"chassis#{node}", truth))
+    sc = Scenario("mini", "test", variant=1, damping="constant-2", augmentations=augs).with_seed(11)
+    train = virtual_recording(sc, "white-noise", 16.0, bodies=bodies, sensors=FRAME_SENSORS)
+    hold = virtual_recording(sc, "test", 16.0, bodies=bodies, sensors=FRAME_SENSORS)
+    st = RigDiagnosisSettings(train_duration_s=12.0, screen_duration_s=8.0, max_findings=2)
+    d = diagnose_rig(
+        1, [train], [hold], damping="constant-2", bodies=bodies, sensors=FRAME_SENSORS, settings=st
+    )
+    assert [f.physics for f in d.findings] == ["sensor_dead", "local_element"]
+    assert d.findings[0].location["sensors"] == ["ARFHX"]
+    f = d.findings[1]
+    assert np.linalg.norm(np.asarray(f.location["position_m"]) - x[node]) < 0.06
+    assert f.parameters["damping_n_s_per_m"]["value"] == pytest.approx(3000.0, rel=0.1)
+
+
 def test_a_point_mass_away_from_the_sensors_is_named_a_point_mass(bodies):
     """Truth: 12 kg at the chassis mesh node farthest from the sensors, where no sensor-point candidate
     reaches: found by the structure screen and named an added mass (not a resonator, which can mimic a
