@@ -38,6 +38,7 @@ __all__ = [
     "REFINE_MIN_GAIN",
     "REFINE_STEPS",
     "SIMPLER_MARGIN",
+    "SIMPLER_SHARE",
     "place_again",
     "PLACE_AGAIN_MARGIN",
     "STAND_IN_SHARE",
@@ -52,8 +53,12 @@ REFINE_MIN_GAIN = 0.02
 #: refinement steps per point fit at most (each from the last refit's node)
 REFINE_STEPS = 3
 #: the nested simpler entry is named if the residual it leaves (sum of squares) is at most this share
-#: larger than the resonator's
+#: larger than the resonator's ...
 SIMPLER_MARGIN = 0.1
+#: ... or if it explains at most this share of the round's error less than the resonator (the margin by
+#: which the generic element gives way to a catalogue entry): the resonator's third parameter makes up
+#: for a place a few centimetres off, which is a large share of a small residual left
+SIMPLER_SHARE = 0.05
 #: resonator fits of a round tried for the simpler entry they nest (best first)
 SIMPLER_TRIES = 2
 
@@ -297,7 +302,8 @@ def simpler_entries(problem, state, screening, fits, meta: dict, round_no: int):
     the band has a tuning and damping the data do not determine). The nested entry is fitted at the
     resonator's place from the resonator's equivalent values and its place refined
     (:func:`refine_places`). It replaces an acceptable resonator when the residual it leaves is at most
-    :data:`SIMPLER_MARGIN` larger; it joins the acceptable fits in place of an unidentifiable one when it
+    :data:`SIMPLER_MARGIN` larger, or when it explains at most :data:`SIMPLER_SHARE` of the round's error
+    less; it joins the acceptable fits in place of an unidentifiable one when it
     is acceptable itself. Each resonator fit is asked once: the round asks again after the place
     refinement, of the resonators refitted at a better place (their values there may not resonate in
     the band where the screened place's did).
@@ -378,20 +384,27 @@ def simpler_entries(problem, state, screening, fits, meta: dict, round_no: int):
         if id(f) not in ok_ids:
             problem.say(f"  {best['h'].label} explains {100 * best['improvement']:.0f} %: acceptable")
             ok.append(best)
-        elif best["rss"] <= (1.0 + SIMPLER_MARGIN) * f["rss"]:
+        elif (
+            best["rss"] <= (1.0 + SIMPLER_MARGIN) * f["rss"]
+            or best["improvement"] >= f["improvement"] - SIMPLER_SHARE
+        ):
             problem.say(
-                f"  {best['h'].label} leaves {best['rss'] / f['rss']:.2f} times the resonator's residual: "
+                f"  {best['h'].label} leaves {best['rss'] / f['rss']:.2f} times the resonator's residual "
+                f"(explains {100 * best['improvement']:.0f} % against {100 * f['improvement']:.0f} %): "
                 "named instead"
             )
             ok[next(i for i, g in enumerate(ok) if g is f)] = best
         else:
-            problem.say(f"  it leaves {best['rss'] / f['rss']:.2f} times the resonator's residual: kept")
+            problem.say(
+                f"  it leaves {best['rss'] / f['rss']:.2f} times the resonator's residual (explains "
+                f"{100 * best['improvement']:.0f} % against {100 * f['improvement']:.0f} %): kept"
+            )
     return replace(fits, fitted=tuple(fitted), ok=tuple(ok))
 
 
 #: a later finding whose residual share an earlier point finding placed again comes within this share of
 #: (residual sum of squares) is not named: the earlier finding is moved instead
-PLACE_AGAIN_MARGIN = SIMPLER_MARGIN
+PLACE_AGAIN_MARGIN = 0.1
 #: a later finding is flagged when an earlier point finding placed again explains this share of what
 #: it explains (or more)
 STAND_IN_SHARE = 0.5
