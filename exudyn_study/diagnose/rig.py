@@ -72,7 +72,7 @@ from exudyn_study.diagnose.rig_explain import (
     recording_label,
     unexplained_entry,
 )
-from exudyn_study.diagnose.rig_fit import choose_batch, fit_generic, fit_nonlinear, fit_round
+from exudyn_study.diagnose.rig_fit import GENERIC_MARGIN, choose_batch, fit_generic, fit_nonlinear, fit_round
 from exudyn_study.diagnose.rig_fit_together import refit_findings
 from exudyn_study.diagnose.rig_global import body_wide
 from exudyn_study.diagnose.rig_hypotheses import OutputChain
@@ -327,10 +327,6 @@ def _generic_if_better(problem: RigProblem, state: ModelState, screening, fits, 
         f"{100 * best_catalogue:.0f} % for the catalogue's best (a parameter at its bound): taken instead"
     )
     return replace(fits, fitted=fits.fitted + generic.fitted, ok=tuple(better))
-
-
-#: the generic element replaces catalogue fits if it removes this much more of the residual
-GENERIC_MARGIN = 0.05
 
 
 def _clearly_better(generic_fits, best_catalogue: float) -> list:

@@ -603,6 +603,11 @@ def fit_extra(problem: RigProblem, screening: Screening, h, score: float) -> dic
     return f
 
 
+#: the generic element replaces catalogue fits if it removes this much more of the residual (and gives
+#: way to one that explains within this much of it)
+GENERIC_MARGIN = 0.05
+
+
 def fit_generic(
     problem: RigProblem,
     state: ModelState,

@@ -175,8 +175,7 @@ def body_wide(problem, state, screening, fits, meta: dict, round_no: int):
     """
     from dataclasses import replace
 
-    from exudyn_study.diagnose.rig import GENERIC_MARGIN
-    from exudyn_study.diagnose.rig_fit import fit_generic
+    from exudyn_study.diagnose.rig_fit import GENERIC_MARGIN, fit_generic
     from exudyn_study.diagnose.rig_state import RoundFits
 
     modal = [f for f in fits.ok if f["h"].physics == "modal_damping"]
