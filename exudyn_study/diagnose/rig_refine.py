@@ -416,8 +416,9 @@ def place_again(problem, state, comparison, screening, fits, progress, meta: dic
     A point finding (a mass, a resonator, a spring-damper to ground) is placed in its round against the
     residual of that round; a place a few centimetres off, or judged on a residual that a later finding
     has since explained, leaves a mismatch of its own that a small element elsewhere can take up. Each
-    earlier point finding is taken out of the current model and its place refined there (the walk of
-    :func:`refine_places`, from its place and values, each step fitting better). Then:
+    earlier point finding is taken out of the current model, its values refitted at its place (a value a
+    few per cent off leaves a mismatch as a place does) and its place refined there (the walk of
+    :func:`refine_places`, from its place and those values, each step fitting better). Then:
 
     - the round has an acceptable fit: when the moved finding leaves at most
       :data:`PLACE_AGAIN_MARGIN` more of the residual than the round's best fit, the finding is moved
@@ -539,7 +540,11 @@ def _walk_again(problem, state, screening, record: dict, meta: dict, round_no: i
     here = {"h": h0, "p": p, "rss": float(r_here @ r_here)}
     sens = LocalSensitivity.of_evaluator(without.lin, problem.ev_spectral)
     problem.say(f"placing finding {record['finding'] + 1} ({h.label}) again on what the later findings leave")
-    current, refits = _walk(problem, without, scr, here, sens, problem.ev_spectral)
+    # its values refitted at its own place first: a value a few per cent off leaves a mismatch as a place does
+    own = fit_extra(problem, scr, h0, 0.0)
+    start = own if own["rejected"] is None and own["rss"] < here["rss"] else here
+    current, refits = _walk(problem, without, scr, start, sens, problem.ev_spectral)
+    refits = [own] + refits
     for f2 in refits:
         f2["placed_again"] = record["finding"] + 1
     meta["candidates"] += candidates_meta(refits, round_no, aic0)
@@ -579,10 +584,16 @@ def _move(problem, state, comparison, progress, move: dict, meta: dict, round_no
     old = progress.findings[k]
     at_bound = np.asarray(f.get("at_bound", np.zeros(len(f["h"].names), bool)), dtype=bool)
     text = explain(f["h"], f["p"], f["std"], move["without"].lin, after.lin, r["located"])
-    text += (
-        f" (Placed again in round {round_no + 1}, {move['distance_m']:.2f} m from where its own round put "
-        "it: the later findings left a mismatch this place explains.)"
-    )
+    if f["h"].location == r["h"].location:
+        text += (
+            f" (Refitted at its place in round {round_no + 1}: the later findings left a mismatch these "
+            "values explain.)"
+        )
+    else:
+        text += (
+            f" (Placed again in round {round_no + 1}, {move['distance_m']:.2f} m from where its own round "
+            "put it: the later findings left a mismatch this place explains.)"
+        )
     findings, records = list(progress.findings), list(progress.records)
     findings[k] = make_finding(
         f["h"],
