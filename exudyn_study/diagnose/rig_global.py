@@ -251,6 +251,6 @@ def body_wide(problem, state, screening, fits, meta: dict, round_no: int):
                 )
             )
             problem.say(f"{f['h'].label}: {flag}")
-            f["flags"] = tuple(f.get("flags", ())) + (flag,)
+            f.setdefault("flags", []).append(flag)
     together = fits.together and all(g["h"].physics != "local_element" for g in ok)
     return replace(fits, fitted=tuple(fitted), ok=tuple(ok), together=together)

@@ -126,6 +126,27 @@ def test_a_modal_damping_factor_standing_in_for_a_dashpot_gives_way_to_the_local
     assert f.parameters["damping_n_s_per_m"]["value"] == pytest.approx(1000.0, rel=0.1)
 
 
+def test_a_modal_damping_factor_kept_for_a_dashpot_is_flagged_not_body_wide(bodies, monkeypatch):
+    """The same dashpot with the generic local element kept out: the factor is the round's only fit and is
+    named, with a flag that its bands disagree and a local damper may explain it."""
+    from dataclasses import replace
+
+    from exudyn_study.diagnose import rig_candidates
+    from exudyn_study.virtual_rig import Augment
+
+    monkeypatch.setitem(
+        rig_candidates.RIG_CANDIDATES,
+        "ground_spring_damper",
+        replace(rig_candidates.RIG_CANDIDATES["ground_spring_damper"], factory=lambda ctx: []),
+    )
+    monkeypatch.setattr(rig_candidates, "generic_local_elements", lambda ctx, n_places=6: [])
+    truth = {"stiffness_n_per_m": 0.0, "damping_n_s_per_m": 1000.0}
+    d = _diagnose(bodies, Augment("ground_spring_damper", "ARHBZ", truth))
+    f = d.findings[0]
+    assert f.physics == "modal_damping"
+    assert any("per band" in x and "local damper" in x for x in f.flags)
+
+
 def test_a_body_wide_modal_damping_change_keeps_its_factor_unflagged(bodies):
     """Truth: the chassis's modal damping twice the model's. The factors per band agree within 5 % and the
     finding is the modal damping factor, 2.0, with no flag."""
