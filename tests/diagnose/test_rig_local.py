@@ -301,11 +301,11 @@ def test_a_dashpot_between_the_screened_places_is_refitted_at_its_node(bodies):
 
 
 def test_a_dashpot_after_a_dead_channel_is_found_and_placed_at_its_node(bodies):
-    """Truth: a dead channel (ARFHX records only noise) and the 3000 N s/m dashpot between the screened places.
-    Round 1 names the dead channel. The channel's recording then carries nothing of the structure: its noise
-    (a relative error of 1 against a model that records nothing there) is left out of every later residual,
-    on time histories and log transmissibilities, and the place refinement refits with the dead channel in
-    the output chain. Round 2 names the dashpot at its node with its damping."""
+    """Truth: a dead channel (ARFHX records only noise) and the 3000 N s/m dashpot between the screened
+    places. Round 1 names the dead channel. The channel's recording then carries nothing of the structure:
+    its noise (a relative error of 1 against a model that records nothing there) is left out of every later
+    residual, on time histories and log transmissibilities, and the place refinement refits with the dead
+    channel in the output chain. Round 2 names the dashpot at its node with its damping."""
     from exudyn_study.diagnose.rig import RigDiagnosisSettings, diagnose_rig
     from exudyn_study.virtual_rig import Augment, Scenario, virtual_recording
 
