@@ -99,7 +99,14 @@ class RigRecording:
     scale: np.ndarray = field(default=None, repr=False)  # 1 / rms(filtered) per channel
 
 
-def _sos():
+def band_sos():
+    """Return the second-order sections of the 3-60 Hz band-pass :func:`band_filter` applies (zero phase).
+
+    Returns
+    -------
+    numpy.ndarray
+        Butterworth band-pass of order 4, shape (n_sections, 6).
+    """
     return sps.butter(4, BAND_HZ, btype="bandpass", fs=RATE_HZ, output="sos")
 
 
@@ -116,7 +123,7 @@ def band_filter(x: np.ndarray) -> np.ndarray:
     numpy.ndarray
         Filtered signals at 250 Hz, shape (..., n_kept).
     """
-    y = sps.sosfiltfilt(_sos(), x, axis=-1)
+    y = sps.sosfiltfilt(band_sos(), x, axis=-1)
     k0, k1 = int(SKIP_S * RATE_HZ), y.shape[-1] - int(0.5 * RATE_HZ)
     return y[..., k0:k1:4]
 

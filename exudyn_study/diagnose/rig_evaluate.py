@@ -122,16 +122,54 @@ class Evaluator:
         if key in self._cache and self._cache[key][0] is lin:
             base = self._cache[key][1]
         else:
-            base = []
-            for (n, n_fft, f, spec), idx in zip(self.spectra, self.idx, strict=True):
-                h = frf_linear(lin, f)[idx, 0, :]
-                full = np.zeros((idx.size, n_fft // 2 + 1), dtype=complex)
-                full[:, : f.size] = h * spec[None, :]
-                base.append(np.fft.irfft(full, n_fft, axis=1)[:, :n])
-            if self.offset is not None:
-                base = [b + o for b, o in zip(base, self.offset, strict=True)]
+            freqs = self.frequencies()
+            frfs = [frf_linear(lin, f)[idx, 0, :] for f, idx in zip(freqs, self.idx, strict=True)]
+            base = self._convolve(frfs)
             self._cache = {key: (lin, base)}
         return self._through_outputs(base, gains)
+
+    def _convolve(self, frfs: list) -> list:
+        """Return the response from rest (offsets added) of the recorded channels with FRFs ``frfs``.
+
+        ``frfs``: per recording, the drive-to-channel FRFs at its frequencies up to :data:`F_MAX_HZ`,
+        shape (n_channels, n_f).
+        """
+        base = []
+        for (n, n_fft, f, spec), h in zip(self.spectra, frfs, strict=True):
+            full = np.zeros((h.shape[0], n_fft // 2 + 1), dtype=complex)
+            full[:, : f.size] = h * spec[None, :]
+            base.append(np.fft.irfft(full, n_fft, axis=1)[:, :n])
+        if self.offset is not None:
+            base = [b + o for b, o in zip(base, self.offset, strict=True)]
+        return base
+
+    def frequencies(self) -> list:
+        """Return per recording the frequencies (Hz) at which the convolution takes the FRFs.
+
+        Returns
+        -------
+        list of numpy.ndarray
+            Per recording, shape (n_f,): the padded record's FFT frequencies up to :data:`F_MAX_HZ`.
+        """
+        return [f for _, _, f, _ in self.spectra]
+
+    def residual_of_frfs(self, frfs: list, gains=None) -> np.ndarray:
+        """Return :meth:`residual_vector` of a linear system given by its FRFs (the convolution).
+
+        Parameters
+        ----------
+        frfs : list of numpy.ndarray
+            Per recording, the FRFs from the drive to its channels at :meth:`frequencies`, shape
+            (n_channels, n_f).
+        gains : numpy.ndarray or OutputChain or None, optional
+            Output gain per channel or a chain of acquisition stages (None: all one).
+
+        Returns
+        -------
+        numpy.ndarray
+            As :meth:`residual_vector`.
+        """
+        return self._residual(self._through_outputs(self._convolve(frfs), gains))
 
     def _through_outputs(self, base: list, gains) -> list:
         """Return the channels ``base`` (per recording) through the output ``gains`` (None: unchanged)."""
@@ -189,8 +227,12 @@ class Evaluator:
         numpy.ndarray
             The residuals of all recordings, each scaled by 1 / sqrt(its size), concatenated, shape (n_rows,).
         """
+        return self._residual(self.simulate(lin, gains))
+
+    def _residual(self, sims: list) -> np.ndarray:
+        """Return the residual vector of the simulations ``sims`` (per recording, as :meth:`simulate`)."""
         parts = []
-        for k, (r, sim) in enumerate(zip(self.recs, self.simulate(lin, gains), strict=True)):
+        for k, (r, sim) in enumerate(zip(self.recs, sims, strict=True)):
             e = self._filtered_residual(k, r, sim)
             dead = ~np.any(sim != 0.0, axis=1)
             if dead.any():  # a channel the acquisition chain records as nothing (a dead sensor found): its

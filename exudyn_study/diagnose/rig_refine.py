@@ -35,6 +35,10 @@ __all__ = [
     "nodes_near",
     "REFINE_RADIUS_M",
     "REFINE_SPACING_M",
+    "REFINE_FINE_RADIUS_M",
+    "REFINE_TIME_RADIUS_M",
+    "REFINE_TIME_SPACING_M",
+    "REFINE_TIME_FINE_RADIUS_M",
     "REFINE_MIN_GAIN",
     "REFINE_STEPS",
     "SIMPLER_MARGIN",
@@ -48,10 +52,24 @@ __all__ = [
 REFINE_RADIUS_M = 0.26
 #: one node per cube of this edge (m) among them
 REFINE_SPACING_M = 0.04
+#: when no such node explains clearly more, every mesh node within this distance (m) is tried: a place
+#: between two sampled nodes (a few centimetres on a thin shell carrying a heavy mass) leaves tens of times
+#: the noise floor
+REFINE_FINE_RADIUS_M = 0.06
 #: a node is refitted if the fitted element there leaves this share less of the residual
 REFINE_MIN_GAIN = 0.02
-#: refinement steps per point fit at most (each from the last refit's node)
-REFINE_STEPS = 3
+#: when neither explains clearly more on log transmissibilities (whose estimation noise hides what a few
+#: centimetres change once a point finding explains nearly everything), nodes within this distance (m), one
+#: per :data:`REFINE_TIME_SPACING_M` cube, are scored on the time histories (:class:`TimeScorer`)
+REFINE_TIME_RADIUS_M = 0.1
+REFINE_TIME_SPACING_M = 0.025
+#: and when none of them explains clearly more, every node within this distance (m)
+REFINE_TIME_FINE_RADIUS_M = 0.03
+#: the best nodes of a step on the time histories whose amount is refined on the exact residual
+REFINE_TIME_POLISHED = 3
+#: refinement steps per point fit at most (each from the last refit's node; a walk ends earlier when no
+#: node nearby explains clearly more)
+REFINE_STEPS = 8
 #: the nested simpler entry is named if the residual it leaves (sum of squares) is at most this share
 #: larger than the resonator's ...
 SIMPLER_MARGIN = 0.1
@@ -67,13 +85,13 @@ def nodes_near(
     model,
     position_m,
     radius_m: float = REFINE_RADIUS_M,
-    spacing_m: float = REFINE_SPACING_M,
+    spacing_m: float | None = REFINE_SPACING_M,
     skip=("rear_foundation",),
 ) -> list:
     """Return ``(place name 'body#node', position)`` of mesh nodes within ``radius_m`` of a point.
 
-    One node per ``spacing_m`` cube (the nearest the centroid of the cube's nodes), on every flexible
-    body but those in ``skip``.
+    One node per ``spacing_m`` cube (the nearest the centroid of the cube's nodes), or every node when
+    ``spacing_m`` is None, on every flexible body but those in ``skip``.
 
     Parameters
     ----------
@@ -83,8 +101,8 @@ def nodes_near(
         The point (m), shape (3,).
     radius_m : float, optional
         Search radius (m).
-    spacing_m : float, optional
-        Cube edge (m).
+    spacing_m : float or None, optional
+        Cube edge (m); None: every node.
     skip : tuple of str, optional
         Bodies left out (the rig's foundation).
 
@@ -101,6 +119,9 @@ def nodes_near(
         x = np.asarray(handle.body.node_positions_m, dtype=float) + np.asarray(handle.position_m, dtype=float)
         near = np.flatnonzero(np.linalg.norm(x - pos, axis=1) <= radius_m)
         if near.size == 0:
+            continue
+        if spacing_m is None:
+            out += [(f"{b}#{int(n)}", x[n]) for n in near]
             continue
         cells = np.floor(x[near] / spacing_m).astype(int)
         _, inverse = np.unique(cells, axis=0, return_inverse=True)
@@ -149,7 +170,7 @@ def refine_places(problem, state, screening, fits, meta: dict, round_no: int):
     sens = LocalSensitivity.of_evaluator(state.lin, ev)
     ok, fitted = list(fits.ok), list(fits.fitted)
     for f in point:
-        current, refits = _walk(problem, state, screening, f, sens, ev)
+        current, refits = _walk(problem, state, screening, f, sens, ev, screening.walks)
         fitted += refits
         if current is not f:
             ok[next(i for i, g in enumerate(ok) if g is f)] = current
@@ -160,30 +181,71 @@ def refine_places(problem, state, screening, fits, meta: dict, round_no: int):
     return replace(fits, fitted=tuple(fitted), ok=tuple(ok))
 
 
-def _walk(problem, state, screening, f: dict, sens, ev) -> tuple:
+def _walk(problem, state, screening, f: dict, sens, ev, walked: dict | None = None) -> tuple:
     """Refine point fit ``f``'s place from node to node while a neighbour explains clearly more.
 
-    At most :data:`REFINE_STEPS` steps, each refit fitting better than the last. Returns
-    ``(best fit, every refit made)``; the best fit is ``f`` when no step fits better.
+    Each refit fits better than the last. A step tries one node per :data:`REFINE_SPACING_M` cube within
+    :data:`REFINE_RADIUS_M` and, when none of them explains clearly more, every node within
+    :data:`REFINE_FINE_RADIUS_M` (both on log transmissibilities); when neither finds one, or after
+    :data:`REFINE_STEPS` such steps, the walk goes on on the time histories only (the nodes within
+    :data:`REFINE_TIME_RADIUS_M`, then every node within :data:`REFINE_TIME_FINE_RADIUS_M`, each at its
+    best amounts; a refit there judged on them), for at most :data:`REFINE_STEPS` steps.
+    ``walked`` maps ``(kind, place)`` of the nodes the round's earlier walks refitted at to where those
+    walks ended: a walk reaching one of them ends there too instead of fitting the same element at the
+    same node again (it is updated).
+
+    Returns ``(best fit, every refit made)``; the best fit is ``f`` when no step fits better.
     """
-    current, refits = f, []
-    for _ in range(REFINE_STEPS):
-        f2 = _refine_step(problem, state, screening, current, sens, ev)
-        if f2 is None:
+    from exudyn_study.diagnose.rig_places import TimeScorer
+
+    walked = {} if walked is None else walked
+    current, refits, visited, timed = f, [], [], None
+    in_time, steps = False, {False: 0, True: 0}
+    while True:
+        step = None
+        if not in_time and steps[False] < REFINE_STEPS:
+            step = _better_node(state, screening, current, sens, ev, REFINE_RADIUS_M, REFINE_SPACING_M)
+            if step is None:
+                step = _better_node(state, screening, current, sens, ev, REFINE_FINE_RADIUS_M, None)
+        if step is None and steps[True] < REFINE_STEPS:
+            # from here on the time histories only: log transmissibilities no longer resolve the place
+            in_time = True
+            if timed is None:
+                timed = TimeScorer(state.lin, problem.ev_screen, state.gains)
+            step = _better_node_in_time(
+                state, screening, current, timed, REFINE_TIME_RADIUS_M, REFINE_TIME_SPACING_M
+            )
+            if step is None:
+                step = _better_node_in_time(state, screening, current, timed, REFINE_TIME_FINE_RADIUS_M, None)
+        if step is None:
             break
+        steps[in_time] += 1
+        key = (current["h"].physics, step[0])
+        if key in visited or step[0] == f["h"].location:  # back to a node of this walk: it ends here
+            break
+        if key in walked:  # an earlier walk of the round went on from this node
+            end = walked[key]
+            if end["rejected"] is None and _fits_better(problem, end, current, in_time):
+                current = end
+            break
+        f2 = _refit_at(problem, state, screening, current, step)
         refits.append(f2)
-        if f2["rejected"] is not None or not f2["rss"] < current["rss"]:
+        visited.append(key)
+        if f2["rejected"] is not None or not _fits_better(problem, f2, current, in_time):
             problem.say(f"  the refit at {f2['h'].location} does not fit better: {current['h'].label} kept")
             break
         current = f2
+    walked.update((key, current) for key in visited)
     return current, refits
 
 
-def _refine_step(problem, state, screening, f: dict, sens, ev):
-    """Refit point fit ``f`` at the mesh node nearby where its fitted element explains clearly more.
+def _better_node(state, screening, f: dict, sens, ev, radius_m: float, spacing_m: float | None):
+    """Return the mesh node near point fit ``f``'s place where its element explains clearly more, or None.
 
-    Returns the refit's record (``rejected`` and ``refined_from`` set), or None when no node within
-    :data:`REFINE_RADIUS_M` leaves :data:`REFINE_MIN_GAIN` less of the residual than ``f``'s place.
+    Nodes within ``radius_m`` (one per ``spacing_m`` cube; None: every node) are scored by the low-rank
+    update at the fitted values scaled (:data:`REFINE_VALUE_FACTORS`). Returns ``(name, position, share,
+    left there, left here)`` when the best node leaves :data:`REFINE_MIN_GAIN` less of the residual than
+    ``f``'s place.
     """
     from exudyn_study.diagnose.rig_candidates import place_where, point_of
     from exudyn_study.diagnose.rig_places import PlaceScorer
@@ -193,26 +255,100 @@ def _refine_step(problem, state, screening, f: dict, sens, ev):
     if here is None:
         return None
     values = {n: float(v) for n, v in zip(h.names, f["p"], strict=True)}
+    nodes = [
+        (name, pos) for name, pos in nodes_near(state.model, here, radius_m, spacing_m) if name != h.location
+    ]
+    if not nodes:
+        return None
     scorer = PlaceScorer.of_evaluator(sens, ev, state.gains, {h.physics: _value_grid(values)})
     _, p_here = place_where(screening.ctx, h.location)
-    nodes = [(name, pos) for name, pos in nodes_near(state.model, here) if name != h.location]
     maps = [p_here] + [place_where(screening.ctx, name)[1] for name, _ in nodes]
     shares = [(best[0][2] if best else -np.inf) for best in scorer.score([sens.reduced(m) for m in maps])]
-    k = int(np.argmax(shares[1:])) + 1 if nodes else 0
+    k = int(np.argmax(shares[1:])) + 1
     left_here, left_best = 1.0 - shares[0], 1.0 - shares[k]
-    if k == 0 or not left_best < (1.0 - REFINE_MIN_GAIN) * left_here:
+    if not left_best < (1.0 - REFINE_MIN_GAIN) * left_here:
         return None
-    name, pos = nodes[k - 1]
+    return (*nodes[k - 1], shares[k], left_best, left_here)
+
+
+def _fits_better(problem, a: dict, b: dict, in_time: bool) -> bool:
+    """Return whether fit ``a`` leaves less than fit ``b``.
+
+    On the time histories for a step found on them, else on the round's evaluator (it may be log
+    transmissibilities).
+    """
+    if in_time:
+        return _rss_time(problem, a) < _rss_time(problem, b)
+    return a["rss"] < b["rss"]
+
+
+def _rss_time(problem, f: dict) -> float:
+    """Return fit ``f``'s residual sum of squares on the training time histories (computed once)."""
+    if "rss_time" not in f:
+        from exudyn_study.diagnose.rig_evaluate import combined_gains, system_residual
+
+        h, p = f["h"], f["p"]
+        r = system_residual(problem.ev_train, h.system(p), combined_gains(h, p, problem.channels))
+        f["rss_time"] = float(r @ r) if r is not None else math.inf
+    return f["rss_time"]
+
+
+def _better_node_in_time(state, screening, f: dict, timed, radius_m: float, spacing_m: float | None):
+    """Return the node near point fit ``f``'s place where its element leaves clearly less (time histories).
+
+    Nodes within ``radius_m`` (one per ``spacing_m`` cube; None: every node) are scored by ``timed`` (a
+    :class:`~exudyn_study.diagnose.rig_places.TimeScorer`), each at its best amounts
+    (:meth:`~exudyn_study.diagnose.rig_places.TimeScorer.best`). Returns what :func:`_better_node`
+    returns and the element's values there, or None.
+    """
+    from exudyn_study.diagnose.rig_candidates import place_where, point_of
+
+    h = f["h"]
+    here = point_of(h, screening.ctx.markers).get("position_m")
+    if here is None or not timed.rss0 > 0.0:
+        return None
+    values = {n: float(v) for n, v in zip(h.names, f["p"], strict=True)}
+    near = nodes_near(state.model, here, radius_m, spacing_m)
+    nodes = [(name, pos) for name, pos in near if name != h.location]
+    if not nodes:
+        return None
+    maps = [place_where(screening.ctx, name)[1] for name, _ in nodes]
+    scored = [timed.best(m, values) for m in maps]
+    # the best few and the place itself refined on the exact residual
+    p_here = place_where(screening.ctx, h.location)[1]
+    rss_here = timed.polish(p_here, timed.best(p_here, values)[1])[0]
+    for i in np.argsort([rss for rss, _ in scored])[:REFINE_TIME_POLISHED]:
+        scored[i] = timed.polish(maps[i], scored[i][1])
+    k = int(np.argmin([rss for rss, _ in scored]))
+    left_here, left_best = rss_here / timed.rss0, scored[k][0] / timed.rss0
+    if not left_best < (1.0 - REFINE_MIN_GAIN) * left_here:
+        return None
+    return (*nodes[k], max(0.0, 1.0 - left_best), left_best, left_here, scored[k][1])
+
+
+def _refit_at(problem, state, screening, f: dict, step: tuple) -> dict:
+    """Refit point fit ``f``'s element at the node of ``step`` (from :func:`_better_node`); its record.
+
+    The record has ``rejected`` and ``refined_from`` set.
+    """
+    from exudyn_study.diagnose.rig_candidates import point_of
+
+    h = f["h"]
+    name, pos, share, left_best, left_here = step[:5]
+    here = point_of(h, screening.ctx.markers).get("position_m")
+    values = {n: float(v) for n, v in zip(h.names, f["p"], strict=True)}
+    if len(step) > 5:  # the values the step found there
+        values = {n: float(step[5][n]) for n in h.names}
     h2 = _moved(h, screening.ctx, name, values, state.lin)
     h2.position_m = [float(v) for v in pos]
     if hasattr(h, "place"):
         h2.place = point_of(h2, screening.ctx.markers)
     problem.say(
-        f"refining {h.label}: the fitted element leaves {100 * left_best:.1f} % of the residual at "
+        f"refining {h.label}: the fitted element leaves {100 * left_best:.3g} % of the residual at "
         f"{name}, {np.linalg.norm(np.asarray(pos) - np.asarray(here)):.2f} m away, against "
-        f"{100 * left_here:.1f} % at {h.location}: refitting there"
+        f"{100 * left_here:.3g} % at {h.location}: refitting there"
     )
-    f2 = fit_extra(problem, screening, h2, shares[k])
+    f2 = fit_extra(problem, screening, h2, share)
     f2["refined_from"] = h.location
     return f2
 
@@ -529,7 +665,7 @@ def _walk_again(problem, state, screening, record: dict, meta: dict, round_no: i
     r0 = system_residual(ev, without.lin, without.gains)
     if r0 is None:
         return None
-    scr = replace(screening, ctx=ctx, hyps=(), scores=(), order=(), rss0=float(r0 @ r0))
+    scr = replace(screening, ctx=ctx, hyps=(), scores=(), order=(), rss0=float(r0 @ r0), walks={})
     p = h.fit_values(accepted[k][2])
     values = {n: float(v) for n, v in zip(h.names, p, strict=True)}
     h0 = _moved(h, ctx, h.location, values, without.lin)

@@ -340,6 +340,9 @@ class Screening:
         The current model's residual on ``ev_fit`` and on the training time histories.
     ev_time : evaluator
         The exact evaluator of the training time histories.
+    walks : dict
+        The round's place refinements (:func:`~exudyn_study.diagnose.rig_refine.refine_places`): where
+        a walk through a node ended, by ``(kind, place)``, so that walks meeting there fit once.
     """
 
     ctx: object
@@ -352,6 +355,7 @@ class Screening:
     rss0: float
     rss0_time: float
     ev_time: object = None
+    walks: dict = field(default_factory=dict, compare=False, repr=False)
 
     def judged_on(self, h) -> tuple:
         """Return ``(evaluator, rss0, spectral)`` that hypothesis ``h`` is fitted and judged on.
