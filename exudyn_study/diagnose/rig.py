@@ -32,8 +32,8 @@ explain (:mod:`~exudyn_study.diagnose.rig_explain`); settings in
    modal damping factor whose factors per band of modes disagree (a local damper, not a
    body-wide change: :mod:`~exudyn_study.diagnose.rig_global`) when it explains nearly as
    much; a point fit (a mass, a resonator, the generic element) is refitted at a better mesh
-   node within 0.26 m when the fitted element explains clearly more there
-   (:mod:`~exudyn_study.diagnose.rig_refine`).
+   node within 0.26 m when the fitted element explains clearly more there, node by node, the last
+   steps judged on the training time histories (:mod:`~exudyn_study.diagnose.rig_refine`).
 5. **Prove**: a round's findings must not raise the held-out error nor make more than
    ``max_channels_worse`` of the held-out channels materially worse; a nonlinear finding fitted on
    the level-dependent share is proven on that share at a held-out level of the same drive (it must

@@ -7,7 +7,11 @@ makes up for the wrong motion there with a wrong value (a dashpot at a place mov
 about 30 % less damping). :func:`refine_places` scores the fitted element at every mesh node within
 :data:`REFINE_RADIUS_M` (one per :data:`REFINE_SPACING_M` cube) by the same low-rank update, and refits
 at the best node when it explains clearly more; the refit is kept if it fits the round's evaluator
-better.
+better. When no sampled node explains more, every node nearby is tried, and the walk ends on the
+training time histories (:class:`~exudyn_study.diagnose.rig_places.TimeScorer`, each node at its best
+amount): log transmissibilities no longer resolve a few centimetres once a point finding explains
+nearly everything, and a heavy mass a few centimetres off its node still leaves tens of times the
+noise floor there.
 
 A tuned mass-damper can stand in for simpler physics it contains as a limit: tuned above the
 diagnosed band its mass follows its point there (a point mass, apparent value
