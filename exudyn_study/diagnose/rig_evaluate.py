@@ -153,6 +153,24 @@ class Evaluator:
         """
         return [f for _, _, f, _ in self.spectra]
 
+    def simulate_frfs(self, frfs: list, gains=None) -> list:
+        """Return :meth:`simulate` of a linear system given by its FRFs (the convolution).
+
+        Parameters
+        ----------
+        frfs : list of numpy.ndarray
+            Per recording, the FRFs from the drive to its channels at :meth:`frequencies`, shape
+            (n_channels, n_f).
+        gains : numpy.ndarray or OutputChain or None, optional
+            Output gain per channel or a chain of acquisition stages (None: all one).
+
+        Returns
+        -------
+        list of numpy.ndarray
+            As :meth:`simulate`.
+        """
+        return self._through_outputs(self._convolve(frfs), gains)
+
     def residual_of_frfs(self, frfs: list, gains=None) -> np.ndarray:
         """Return :meth:`residual_vector` of a linear system given by its FRFs (the convolution).
 
@@ -169,7 +187,7 @@ class Evaluator:
         numpy.ndarray
             As :meth:`residual_vector`.
         """
-        return self._residual(self._through_outputs(self._convolve(frfs), gains))
+        return self.residual_of_simulations(self.simulate_frfs(frfs, gains))
 
     def _through_outputs(self, base: list, gains) -> list:
         """Return the channels ``base`` (per recording) through the output ``gains`` (None: unchanged)."""
@@ -227,10 +245,22 @@ class Evaluator:
         numpy.ndarray
             The residuals of all recordings, each scaled by 1 / sqrt(its size), concatenated, shape (n_rows,).
         """
-        return self._residual(self.simulate(lin, gains))
+        return self.residual_of_simulations(self.simulate(lin, gains))
 
-    def _residual(self, sims: list) -> np.ndarray:
-        """Return the residual vector of the simulations ``sims`` (per recording, as :meth:`simulate`)."""
+    def residual_of_simulations(self, sims: list) -> np.ndarray:
+        """Return :meth:`residual_vector` of simulations of the recorded channels.
+
+        Parameters
+        ----------
+        sims : list of numpy.ndarray
+            Per recording, the simulated channels, shape (n_channels, n_samples), as :meth:`simulate`
+            gives them.
+
+        Returns
+        -------
+        numpy.ndarray
+            As :meth:`residual_vector`.
+        """
         parts = []
         for k, (r, sim) in enumerate(zip(self.recs, sims, strict=True)):
             e = self._filtered_residual(k, r, sim)

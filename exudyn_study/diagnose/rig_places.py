@@ -35,6 +35,8 @@ __all__ = [
     "screen_places",
     "PlaceScorer",
     "TimeScorer",
+    "ELEMENT_AMOUNTS",
+    "scale_amounts",
     "score_places_task",
     "PLACE_SPACING_M",
     "TMD_TUNINGS_HZ",
@@ -525,6 +527,28 @@ class PlaceScorer:
         return out
 
 
+#: a local element's amounts (scaled together; a resonator's tuning and damping ratio are not amounts)
+ELEMENT_AMOUNTS = ("mass_kg", "stiffness_n_per_m", "damping_n_s_per_m")
+
+
+def scale_amounts(values: dict, factor: float) -> dict:
+    """Return a local element's parameters with its amounts (:data:`ELEMENT_AMOUNTS`) times ``factor``.
+
+    Parameters
+    ----------
+    values : dict
+        The element's parameters (:func:`element_mu`).
+    factor : float
+        The factor.
+
+    Returns
+    -------
+    dict
+        The parameters, the amounts scaled.
+    """
+    return {k: v * factor if k in ELEMENT_AMOUNTS else v for k, v in values.items()}
+
+
 class TimeScorer:
     """Score a local element at places by the residual of the time histories (the convolution evaluator).
 
@@ -559,12 +583,12 @@ class TimeScorer:
         for f, rows in zip(ev.frequencies(), ev.idx, strict=True):
             band = f <= self.BAND_EDGE_HZ
             self.parts.append((LocalSensitivity(lin, f[band], rows), frf_linear(lin, f)[rows, 0, :], band))
-        r0 = ev.residual_of_frfs([h0 for _, h0, _ in self.parts], gains)
+        sims = ev.simulate_frfs([h0 for _, h0, _ in self.parts], gains)
+        r0 = ev.residual_of_simulations(sims)
         #: the current model's residual sum of squares on ``ev``
         self.rss0 = float(r0 @ r0)
         # for the amounts' search: per recording, the spectrum of the current model's residual and of the
         # drive in the band, and the channels' weights
-        sims = ev._through_outputs(ev._convolve([h0 for _, h0, _ in self.parts]), gains)
         self.spectral = []
         bands = [band for _, _, band in self.parts]
         for (n, n_fft, f, spec), r, sim, band in zip(ev.spectra, ev.recs, sims, bands, strict=True):
@@ -610,7 +634,6 @@ class TimeScorer:
                 out[g] = float(r @ r) if np.all(np.isfinite(r)) else np.inf
         return out
 
-
     def best(self, place_map: np.ndarray, values: dict, span: float = 1.5) -> tuple:
         """Return the residual with the element at a place at its best amounts, and those values.
 
@@ -640,11 +663,10 @@ class TimeScorer:
 
         from exudyn_study.diagnose.rig_hypotheses import apply_output_frf
 
-        amounts = ("mass_kg", "stiffness_n_per_m", "damping_n_s_per_m")
         preps = [sens.at(place_map) for sens, _, _ in self.parts]
 
         def scaled(a: float) -> dict:
-            return {k: v * a if k in amounts else v for k, v in values.items()}
+            return scale_amounts(values, a)
 
         def cost(log_a: float) -> float:
             total = 0.0
@@ -661,7 +683,6 @@ class TimeScorer:
                                 options={"xatol": 1e-3})
         best_values = scaled(math.exp(float(found.x)))
         return float(self.rss(place_map, [best_values])[0]), best_values
-
 
     def polish(self, place_map: np.ndarray, values: dict, span: float = 1.06) -> tuple:
         """Return :meth:`best`'s result refined on the exact residual (the factor within a few per cent).
@@ -686,10 +707,8 @@ class TimeScorer:
         """
         from scipy.optimize import minimize_scalar
 
-        amounts = ("mass_kg", "stiffness_n_per_m", "damping_n_s_per_m")
-
         def scaled(a: float) -> dict:
-            return {k: v * a if k in amounts else v for k, v in values.items()}
+            return scale_amounts(values, a)
 
         found = minimize_scalar(
             lambda log_a: float(self.rss(place_map, [scaled(math.exp(log_a))])[0]),

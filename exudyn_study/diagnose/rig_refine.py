@@ -360,13 +360,11 @@ def _refit_at(problem, state, screening, f: dict, step: tuple) -> dict:
 #: factors on a point fit's amounts (mass, stiffness, damping) at which its element is scored at the
 #: nodes nearby: the value fitted at one node makes up for the motion there, another node needs another
 REFINE_VALUE_FACTORS = (0.5, 0.7, 1.0, 1.4, 2.0)
-#: parameters scaled by :data:`REFINE_VALUE_FACTORS` (a resonator keeps its tuning and damping ratio)
-_AMOUNTS = ("mass_kg", "stiffness_n_per_m", "damping_n_s_per_m")
-
-
 def _value_grid(values: dict) -> list:
     """Return the point element's parameter sets scored at the nodes nearby (its amounts scaled)."""
-    return [{n: v * a if n in _AMOUNTS else v for n, v in values.items()} for a in REFINE_VALUE_FACTORS]
+    from exudyn_study.diagnose.rig_places import scale_amounts
+
+    return [scale_amounts(values, a) for a in REFINE_VALUE_FACTORS]
 
 
 def _moved(h, ctx, place: str, values: dict, lin, kind: str | None = None):
