@@ -248,22 +248,16 @@ def _better_node(state, screening, f: dict, sens, ev, radius_m: float, spacing_m
 
     Nodes within ``radius_m`` (one per ``spacing_m`` cube; None: every node) are scored by the low-rank
     update at the fitted values scaled (:data:`REFINE_VALUE_FACTORS`). Returns ``(name, position, share,
-    left there, left here)`` when the best node leaves :data:`REFINE_MIN_GAIN` less of the residual than
-    ``f``'s place.
+    left there, left here, values)`` (``f``'s values) when the best node leaves :data:`REFINE_MIN_GAIN`
+    less of the residual than ``f``'s place.
     """
-    from exudyn_study.diagnose.rig_candidates import place_where, point_of
+    from exudyn_study.diagnose.rig_candidates import place_where
     from exudyn_study.diagnose.rig_places import PlaceScorer
 
-    h = f["h"]
-    here = point_of(h, screening.ctx.markers).get("position_m")
-    if here is None:
+    around = _around(state, screening, f, radius_m, spacing_m)
+    if around is None:
         return None
-    values = {n: float(v) for n, v in zip(h.names, f["p"], strict=True)}
-    nodes = [
-        (name, pos) for name, pos in nodes_near(state.model, here, radius_m, spacing_m) if name != h.location
-    ]
-    if not nodes:
-        return None
+    h, values, nodes = f["h"], *around
     scorer = PlaceScorer.of_evaluator(sens, ev, state.gains, {h.physics: _value_grid(values)})
     _, p_here = place_where(screening.ctx, h.location)
     maps = [p_here] + [place_where(screening.ctx, name)[1] for name, _ in nodes]
@@ -272,7 +266,25 @@ def _better_node(state, screening, f: dict, sens, ev, radius_m: float, spacing_m
     left_here, left_best = 1.0 - shares[0], 1.0 - shares[k]
     if not left_best < (1.0 - REFINE_MIN_GAIN) * left_here:
         return None
-    return (*nodes[k - 1], shares[k], left_best, left_here)
+    return (*nodes[k - 1], shares[k], left_best, left_here, values)
+
+
+def _around(state, screening, f: dict, radius_m: float, spacing_m: float | None):
+    """Return ``(values, nodes)`` of point fit ``f``: its values and the other nodes within ``radius_m``.
+
+    ``nodes``: ``(name, position)`` from :func:`nodes_near` (one per ``spacing_m`` cube; None: every node).
+    None when ``f`` has no position or no other node is near.
+    """
+    from exudyn_study.diagnose.rig_candidates import point_of
+
+    h = f["h"]
+    here = point_of(h, screening.ctx.markers).get("position_m")
+    if here is None:
+        return None
+    values = {n: float(v) for n, v in zip(h.names, f["p"], strict=True)}
+    near = nodes_near(state.model, here, radius_m, spacing_m)
+    nodes = [(name, pos) for name, pos in near if name != h.location]
+    return (values, nodes) if nodes else None
 
 
 def _fits_better(problem, a: dict, b: dict, in_time: bool) -> bool:
@@ -303,19 +315,14 @@ def _better_node_in_time(state, screening, f: dict, timed, radius_m: float, spac
     Nodes within ``radius_m`` (one per ``spacing_m`` cube; None: every node) are scored by ``timed`` (a
     :class:`~exudyn_study.diagnose.rig_places.TimeScorer`), each at its best amounts
     (:meth:`~exudyn_study.diagnose.rig_places.TimeScorer.best`). Returns what :func:`_better_node`
-    returns and the element's values there, or None.
+    returns, the element's values those found there, or None.
     """
-    from exudyn_study.diagnose.rig_candidates import place_where, point_of
+    from exudyn_study.diagnose.rig_candidates import place_where
 
-    h = f["h"]
-    here = point_of(h, screening.ctx.markers).get("position_m")
-    if here is None or not timed.rss0 > 0.0:
+    around = _around(state, screening, f, radius_m, spacing_m) if timed.rss0 > 0.0 else None
+    if around is None:
         return None
-    values = {n: float(v) for n, v in zip(h.names, f["p"], strict=True)}
-    near = nodes_near(state.model, here, radius_m, spacing_m)
-    nodes = [(name, pos) for name, pos in near if name != h.location]
-    if not nodes:
-        return None
+    h, values, nodes = f["h"], *around
     maps = [place_where(screening.ctx, name)[1] for name, _ in nodes]
     scored = [timed.best(m, values) for m in maps]
     # the best few and the place itself refined on the exact residual
@@ -331,18 +338,17 @@ def _better_node_in_time(state, screening, f: dict, timed, radius_m: float, spac
 
 
 def _refit_at(problem, state, screening, f: dict, step: tuple) -> dict:
-    """Refit point fit ``f``'s element at the node of ``step`` (from :func:`_better_node`); its record.
+    """Refit point fit ``f``'s element at the node of ``step`` (:func:`_better_node`); its record.
 
-    The record has ``rejected`` and ``refined_from`` set.
+    The refit starts from the values the step carries. The record has ``rejected`` and ``refined_from``
+    set.
     """
     from exudyn_study.diagnose.rig_candidates import point_of
 
     h = f["h"]
-    name, pos, share, left_best, left_here = step[:5]
+    name, pos, share, left_best, left_here, found = step
     here = point_of(h, screening.ctx.markers).get("position_m")
-    values = {n: float(v) for n, v in zip(h.names, f["p"], strict=True)}
-    if len(step) > 5:  # the values the step found there
-        values = {n: float(step[5][n]) for n in h.names}
+    values = {n: float(found[n]) for n in h.names}
     h2 = _moved(h, screening.ctx, name, values, state.lin)
     h2.position_m = [float(v) for v in pos]
     if hasattr(h, "place"):
